@@ -1,0 +1,2 @@
+//! weft-cell: the offline half. (to be written)
+fn main() {}

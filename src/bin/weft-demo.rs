@@ -1,0 +1,2 @@
+//! The demo (grows with each issue).
+fn main() {}

@@ -1,0 +1,32 @@
+//! weft: a cloth-simulation kernel for heterogeneous, anisotropic periodic fabrics.
+//!
+//! The method is Saito, Umetani & Morishima 2014, "Macroscopic and microscopic deformation
+//! coupling in up-sampled cloth simulation" (CAVW 25:437–446). Equation numbers in comments
+//! refer to that paper.
+//!
+//! Two halves:
+//! * offline (`std` feature): [`cell`] describes a periodic unit cell, [`homogenize`] solves
+//!   its cell problem (§4), [`blob`] writes the result;
+//! * runtime (`no_std`, no allocation): [`blob`] reads cells in place, [`world`] steps the
+//!   coarse cloth (§5), [`localize`] puts the fine pattern back on it (§6), [`ffi`] exports it to C.
+//!
+//! Conventions (fixed, see `docs/CONVENTIONS.md`): Voigt order `[11, 22, 12]`, engineering
+//! shear strain `[e11, e22, 2 e12]`, membrane stiffness in N/m, areal density in kg/m²,
+//! material space `(u, v)` in metres.
+#![cfg_attr(not(any(feature = "std", test)), no_std)]
+#![forbid(unsafe_op_in_unsafe_fn)]
+
+pub mod bending;
+pub mod blob;
+pub mod membrane;
+pub mod pcg;
+pub mod rotation;
+pub mod sparse;
+
+#[cfg(feature = "std")]
+pub mod cell;
+#[cfg(feature = "std")]
+pub mod homogenize;
+
+/// A 3×3 Voigt stiffness (or compliance) tensor, row-major, order `[11, 22, 12]`, engineering shear.
+pub type Voigt = [[f64; 3]; 3];
