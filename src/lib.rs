@@ -17,11 +17,14 @@
 #![forbid(unsafe_op_in_unsafe_fn)]
 
 pub mod bending;
+pub mod collide;
 pub mod blob;
 pub mod membrane;
+pub mod mesh;
 pub mod pcg;
 pub mod rotation;
 pub mod sparse;
+pub mod world;
 
 #[cfg(feature = "std")]
 pub mod cell;

@@ -1,0 +1,217 @@
+//! weft-bench: per-step cost of the runtime on N×N-vertex sheets.
+//!
+//! `cargo run --release --bin weft-bench -- --grid N [--steps S] [--effects LIST] [--json]`
+//!
+//! A 1 m × 1 m sheet of a bundled anisotropic cell (homogenized here, through the same blob the
+//! engine would load), hanging with two adjacent corners pinned, dt = 1/60 s, a sphere in front
+//! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
+//! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
+//! it off alone.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Parser;
+use glam::Vec3A;
+use weft::blob::Blob;
+use weft::collide::{Collider, Shape};
+use weft::world::{effects, Capacity, ClothDef, Materials, Settings, World};
+
+#[derive(Parser)]
+#[command(about = "Per-step cost of the weft runtime on an N×N-vertex sheet")]
+struct Args {
+    /// Vertices per side.
+    #[arg(long, default_value_t = 21)]
+    grid: u32,
+    /// Timed steps (after 20 warm-up steps).
+    #[arg(long, default_value_t = 300)]
+    steps: u32,
+    /// Comma-separated effects: gravity,bending,damping,pins,collision,wind,warping, or all/none.
+    #[arg(long, default_value = "all")]
+    effects: String,
+    /// Cell description to homogenize for the sheet's material.
+    #[arg(long, default_value = "cells/stripes.toml")]
+    cell: PathBuf,
+    /// PCG relative tolerance.
+    #[arg(long, default_value_t = 1e-4)]
+    tolerance: f32,
+    #[arg(long, default_value_t = 1)]
+    substeps: u32,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+    /// Measure every effect's cost (each turned off alone) and print a table.
+    #[arg(long)]
+    effects_table: bool,
+}
+
+const NAMES: [(&str, u32); 7] = [
+    ("gravity", effects::GRAVITY),
+    ("bending", effects::BENDING),
+    ("damping", effects::DAMPING),
+    ("pins", effects::PINS),
+    ("collision", effects::COLLISION),
+    ("wind", effects::WIND),
+    ("warping", effects::WARPING),
+];
+
+fn parse_effects(list: &str) -> Result<u32, String> {
+    match list {
+        "all" => return Ok(NAMES.iter().fold(0, |m, (_, b)| m | b)),
+        "none" | "" => return Ok(0),
+        _ => {}
+    }
+    let mut mask = 0;
+    for name in list.split(',') {
+        let bit = NAMES
+            .iter()
+            .find(|(n, _)| *n == name.trim())
+            .ok_or_else(|| format!("unknown effect '{name}'"))?
+            .1;
+        mask |= bit;
+    }
+    Ok(mask)
+}
+
+struct Run {
+    us_median: f64,
+    us_max: f64,
+    cg_mean: f64,
+    converged: f64,
+    world_bytes: usize,
+}
+
+fn run(blob: &Blob<'_>, grid: u32, steps: u32, mask: u32, tolerance: f32, substeps: u32) -> Result<Run, String> {
+    let n = grid as usize;
+    let mut positions = vec![[0.0f32; 3]; n * n];
+    let mut uvs = vec![[0.0f32; 2]; n * n];
+    let mut triangles = vec![[0u32; 3]; 2 * (n - 1) * (n - 1)];
+    weft::mesh::grid(n, n, 1.0, 1.0, &mut positions, &mut uvs, &mut triangles).map_err(|e| format!("{e:?}"))?;
+    // hang in the x–z plane
+    for p in &mut positions {
+        *p = [p[0], 0.0, p[1]];
+    }
+    let materials = vec![0u32; triangles.len()];
+    let cap = Capacity::grid(grid);
+    let bytes = cap.world_bytes();
+    let mut mem = vec![0u8; bytes];
+    let settings = Settings {
+        effects: mask,
+        time_step: 1.0 / 60.0,
+        substeps,
+        tolerance,
+        wind: [0.0, 3.0, 0.0],
+        drag: 0.2,
+        ..Settings::default()
+    };
+    let def = ClothDef {
+        positions: &positions,
+        uvs: &uvs,
+        triangles: &triangles,
+        materials: &materials,
+    };
+    let mut world = World::new(&mut mem, cap, &def, Materials::Blob(blob), settings).map_err(|e| format!("init: {e:?}"))?;
+    let top = (n - 1) * n;
+    for corner in [top, top + n - 1] {
+        world.set_pin(corner as u32, positions[corner]).map_err(|e| format!("{e:?}"))?;
+    }
+    world
+        .add_collider(Collider::new(
+            Shape::Sphere {
+                center: Vec3A::new(0.5, 0.35, 0.3),
+                radius: 0.3,
+            },
+            0.3,
+            0.005,
+        ))
+        .map_err(|e| format!("{e:?}"))?;
+    for _ in 0..20 {
+        world.step().map_err(|e| format!("{e:?}"))?;
+    }
+    let mut times = Vec::with_capacity(steps as usize);
+    let mut iterations = 0u64;
+    let mut converged = 0u32;
+    for _ in 0..steps {
+        let t0 = Instant::now();
+        let s = world.step().map_err(|e| format!("{e:?}"))?;
+        times.push(t0.elapsed().as_secs_f64() * 1e6);
+        iterations += s.iterations as u64;
+        converged += s.converged as u32;
+    }
+    times.sort_by(|a, b| a.total_cmp(b));
+    Ok(Run {
+        us_median: times[times.len() / 2],
+        us_max: *times.last().unwrap_or(&0.0),
+        cg_mean: iterations as f64 / steps.max(1) as f64,
+        converged: converged as f64 / steps.max(1) as f64,
+        world_bytes: bytes,
+    })
+}
+
+fn main() {
+    let args = Args::parse();
+    if let Err(e) = real_main(&args) {
+        eprintln!("weft-bench: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn real_main(args: &Args) -> Result<(), String> {
+    if args.grid < 2 {
+        return Err("--grid must be at least 2".into());
+    }
+    let bytes = weft::homogenize::build_blob(&[args.cell.clone()], 1).map_err(|e| e.to_string())?;
+    let aligned = weft::blob::AlignedBytes::from_bytes(&bytes);
+    let blob = Blob::parse(&aligned).map_err(|e| format!("blob: {e}"))?;
+    let mask = parse_effects(&args.effects)?;
+    if args.effects_table {
+        let all = run(&blob, args.grid, args.steps, mask, args.tolerance, args.substeps)?;
+        let none = run(&blob, args.grid, args.steps, 0, args.tolerance, args.substeps)?;
+        println!("grid {0}×{0}, {1} steps, median µs per step (ratios from the same run)", args.grid, args.steps);
+        println!("{:<22} {:>10} {:>10} {:>8}", "effects", "µs/step", "vs all", "CG it");
+        println!("{:<22} {:>10.1} {:>10.3} {:>8.1}", "all", all.us_median, 1.0, all.cg_mean);
+        for (name, bit) in NAMES {
+            if mask & bit == 0 {
+                continue;
+            }
+            let r = run(&blob, args.grid, args.steps, mask & !bit, args.tolerance, args.substeps)?;
+            println!(
+                "{:<22} {:>10.1} {:>10.3} {:>8.1}",
+                format!("all but {name}"),
+                r.us_median,
+                r.us_median / all.us_median,
+                r.cg_mean
+            );
+        }
+        println!("{:<22} {:>10.1} {:>10.3} {:>8.1}", "none", none.us_median, none.us_median / all.us_median, none.cg_mean);
+        return Ok(());
+    }
+    let r = run(&blob, args.grid, args.steps, mask, args.tolerance, args.substeps)?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "grid": args.grid,
+                "steps": args.steps,
+                "effects": args.effects,
+                "tolerance": args.tolerance,
+                "substeps": args.substeps,
+                "us_per_step_median": r.us_median,
+                "us_per_step_max": r.us_max,
+                "cg_iterations_mean": r.cg_mean,
+                "converged_fraction": r.converged,
+                "world_bytes": r.world_bytes,
+            })
+        );
+    } else {
+        println!("grid             {0}×{0} vertices", args.grid);
+        println!("steps            {}", args.steps);
+        println!("effects          {}", args.effects);
+        println!("µs/step median   {:.1}", r.us_median);
+        println!("µs/step max      {:.1}", r.us_max);
+        println!("CG iterations    {:.1} per step (tolerance {})", r.cg_mean, args.tolerance);
+        println!("converged        {:.0}% of steps", r.converged * 100.0);
+        println!("world memory     {} bytes ({:.2} MB)", r.world_bytes, r.world_bytes as f64 / 1e6);
+    }
+    Ok(())
+}

@@ -1,0 +1,287 @@
+//! Kinematic colliders (plane, sphere, capsule) and cloth–collider contact.
+//!
+//! Contact enters the step twice (DESIGN.md "The coarse simulation"):
+//! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets
+//!   a one-direction constraint in the PCG filter (Baraff & Witkin 1998 §5.3): its velocity
+//!   along the contact normal is prescribed so that it ends the step on the offset surface;
+//! * after the solve, positions are projected out of every collider's offset surface (so no
+//!   vertex ever ends a step deeper than `thickness`), the inward relative velocity is removed
+//!   and Coulomb friction scales the tangential relative velocity down.
+//!
+//! Colliders are kinematic: the engine moves them, the cloth does not push back. A collider
+//! that moved since the last step is swept linearly across the substeps, so a fast collider is
+//! seen at every substep instead of jumping over the cloth.
+
+use glam::Vec3A;
+
+/// A collider's geometry, in world space (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// The half-space `dot(normal, x) < offset` is solid; `normal` is unit length.
+    Plane { normal: Vec3A, offset: f32 },
+    Sphere { center: Vec3A, radius: f32 },
+    /// A segment `a`–`b` swept by a sphere of `radius`.
+    Capsule { a: Vec3A, b: Vec3A, radius: f32 },
+}
+
+/// A contact query's answer: signed distance from the surface (negative inside) and the
+/// outward unit normal at the closest surface point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Proximity {
+    pub distance: f32,
+    pub normal: Vec3A,
+}
+
+impl Shape {
+    /// True when every number is finite and sizes are valid (unit plane normal, radii > 0).
+    pub fn is_valid(&self) -> bool {
+        match *self {
+            Shape::Plane { normal, offset } => {
+                normal.is_finite() && offset.is_finite() && (normal.length() - 1.0).abs() < 1e-3
+            }
+            Shape::Sphere { center, radius } => center.is_finite() && radius.is_finite() && radius > 0.0,
+            Shape::Capsule { a, b, radius } => {
+                a.is_finite() && b.is_finite() && radius.is_finite() && radius > 0.0
+            }
+        }
+    }
+
+    /// Signed distance and outward normal at point `p`.
+    pub fn proximity(&self, p: Vec3A) -> Proximity {
+        match *self {
+            Shape::Plane { normal, offset } => Proximity {
+                distance: normal.dot(p) - offset,
+                normal,
+            },
+            Shape::Sphere { center, radius } => sphere_proximity(center, radius, p),
+            Shape::Capsule { a, b, radius } => {
+                let ab = b - a;
+                let len2 = ab.length_squared();
+                let t = if len2 > 0.0 {
+                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                sphere_proximity(a + ab * t, radius, p)
+            }
+        }
+    }
+
+    /// The shape moved by `t` ∈ [0, 1] of the way from `self` to `to` (linear sweep of the
+    /// defining points; a plane's normal is re-normalized).
+    pub fn lerp(&self, to: &Shape, t: f32) -> Shape {
+        match (*self, *to) {
+            (Shape::Plane { normal: n0, offset: o0 }, Shape::Plane { normal: n1, offset: o1 }) => {
+                Shape::Plane {
+                    normal: n0.lerp(n1, t).normalize_or(n1),
+                    offset: o0 + (o1 - o0) * t,
+                }
+            }
+            (Shape::Sphere { center: c0, radius: r0 }, Shape::Sphere { center: c1, radius: r1 }) => {
+                Shape::Sphere {
+                    center: c0.lerp(c1, t),
+                    radius: r0 + (r1 - r0) * t,
+                }
+            }
+            (
+                Shape::Capsule { a: a0, b: b0, radius: r0 },
+                Shape::Capsule { a: a1, b: b1, radius: r1 },
+            ) => Shape::Capsule {
+                a: a0.lerp(a1, t),
+                b: b0.lerp(b1, t),
+                radius: r0 + (r1 - r0) * t,
+            },
+            // A shape that changed kind teleports.
+            _ => *to,
+        }
+    }
+
+    /// Velocity of the surface point nearest to `p` when the shape moves from `from` to `self`
+    /// over `dt` seconds (translation of the nearest defining point; rotation of a capsule is
+    /// approximated by its endpoints' interpolation).
+    pub fn surface_velocity(&self, from: &Shape, p: Vec3A, dt: f32) -> Vec3A {
+        if dt <= 0.0 {
+            return Vec3A::ZERO;
+        }
+        let v = match (*from, *self) {
+            (Shape::Plane { normal: n0, offset: o0 }, Shape::Plane { normal, offset }) => {
+                // only the normal motion of a plane is observable
+                let _ = n0;
+                normal * (offset - o0)
+            }
+            (Shape::Sphere { center: c0, .. }, Shape::Sphere { center, .. }) => center - c0,
+            (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
+                let ab = b - a;
+                let len2 = ab.length_squared();
+                let t = if len2 > 0.0 {
+                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (a - a0).lerp(b - b0, t)
+            }
+            _ => Vec3A::ZERO,
+        };
+        v / dt
+    }
+}
+
+fn sphere_proximity(center: Vec3A, radius: f32, p: Vec3A) -> Proximity {
+    let d = p - center;
+    let len = d.length();
+    // At the exact centre any direction is outward; pick +z deterministically.
+    let normal = if len > 0.0 { d / len } else { Vec3A::Z };
+    Proximity {
+        distance: len - radius,
+        normal,
+    }
+}
+
+/// A kinematic collider as the world stores it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Collider {
+    /// Where the collider is now (set by the engine before a step).
+    pub shape: Shape,
+    /// Where it was at the end of the previous step (the sweep starts here).
+    pub previous: Shape,
+    /// Coulomb friction coefficient (≥ 0).
+    pub friction: f32,
+    /// Distance (m) the cloth keeps from the surface: the cloth's half thickness plus skin.
+    pub thickness: f32,
+}
+
+impl Collider {
+    pub fn new(shape: Shape, friction: f32, thickness: f32) -> Self {
+        Collider {
+            shape,
+            previous: shape,
+            friction,
+            thickness,
+        }
+    }
+
+    pub fn is_valid(&self) -> bool {
+        self.shape.is_valid()
+            && self.previous.is_valid()
+            && self.friction.is_finite()
+            && self.friction >= 0.0
+            && self.thickness.is_finite()
+            && self.thickness >= 0.0
+    }
+}
+
+/// Pushes `x` out to the offset surface of `shape` and corrects `v`: the inward normal
+/// relative velocity is removed and Coulomb friction (coefficient `mu`) reduces the tangential
+/// relative velocity by `mu` times the normal velocity change. `surface_v` is the collider's
+/// surface velocity. Returns true when the vertex was in contact.
+pub fn resolve(
+    shape: &Shape,
+    surface_v: Vec3A,
+    thickness: f32,
+    mu: f32,
+    x: &mut Vec3A,
+    v: &mut Vec3A,
+) -> bool {
+    let prox = shape.proximity(*x);
+    if prox.distance >= thickness {
+        return false;
+    }
+    let n = prox.normal;
+    *x += n * (thickness - prox.distance);
+    let rel = *v - surface_v;
+    let vn = rel.dot(n);
+    if vn < 0.0 {
+        let vt = rel - n * vn;
+        let vt_len = vt.length();
+        // Coulomb: the tangential change is bounded by mu times the normal change |vn|.
+        let scale = if vt_len > 0.0 {
+            (1.0 - mu * (-vn) / vt_len).max(0.0)
+        } else {
+            0.0
+        };
+        *v = surface_v + vt * scale;
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn proximities() {
+        let plane = Shape::Plane {
+            normal: Vec3A::Y,
+            offset: 1.0,
+        };
+        let p = plane.proximity(Vec3A::new(3.0, 0.5, 2.0));
+        assert_eq!(p.distance, -0.5);
+        assert_eq!(p.normal, Vec3A::Y);
+        let s = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        };
+        let p = s.proximity(Vec3A::new(0.0, 0.0, 3.0));
+        assert_eq!(p.distance, 2.0);
+        assert_eq!(s.proximity(Vec3A::ZERO).normal, Vec3A::Z);
+        let c = Shape::Capsule {
+            a: Vec3A::ZERO,
+            b: Vec3A::X * 2.0,
+            radius: 0.5,
+        };
+        let p = c.proximity(Vec3A::new(1.0, 1.0, 0.0));
+        assert!((p.distance - 0.5).abs() < 1e-6 && (p.normal - Vec3A::Y).length() < 1e-6);
+        let p = c.proximity(Vec3A::new(3.0, 0.0, 0.0));
+        assert!((p.distance - 0.5).abs() < 1e-6 && (p.normal - Vec3A::X).length() < 1e-6);
+    }
+
+    #[test]
+    fn resolve_projects_and_applies_friction() {
+        let plane = Shape::Plane {
+            normal: Vec3A::Z,
+            offset: 0.0,
+        };
+        // sliding into the floor: pushed to the thickness, normal velocity removed
+        let mut x = Vec3A::new(0.0, 0.0, -0.1);
+        let mut v = Vec3A::new(1.0, 0.0, -2.0);
+        assert!(resolve(&plane, Vec3A::ZERO, 0.01, 0.25, &mut x, &mut v));
+        assert!((x.z - 0.01).abs() < 1e-7);
+        assert_eq!(v.z, 0.0);
+        assert!((v.x - 0.5).abs() < 1e-6, "friction 0.25·2 = 0.5 removed: {}", v.x);
+        // high friction stops sliding entirely, never reverses it
+        let mut x = Vec3A::new(0.0, 0.0, -0.1);
+        let mut v = Vec3A::new(1.0, 0.0, -2.0);
+        resolve(&plane, Vec3A::ZERO, 0.01, 10.0, &mut x, &mut v);
+        assert_eq!(v.x, 0.0);
+        // away from the surface: untouched
+        let mut x = Vec3A::new(0.0, 0.0, 0.5);
+        let mut v = Vec3A::new(1.0, 0.0, -2.0);
+        assert!(!resolve(&plane, Vec3A::ZERO, 0.01, 0.25, &mut x, &mut v));
+        assert_eq!(v, Vec3A::new(1.0, 0.0, -2.0));
+    }
+
+    #[test]
+    fn sweep_and_surface_velocity() {
+        let a = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        };
+        let b = Shape::Sphere {
+            center: Vec3A::X * 2.0,
+            radius: 1.0,
+        };
+        assert_eq!(
+            a.lerp(&b, 0.5),
+            Shape::Sphere {
+                center: Vec3A::X,
+                radius: 1.0
+            }
+        );
+        assert_eq!(b.surface_velocity(&a, Vec3A::Y * 5.0, 0.5), Vec3A::X * 4.0);
+        assert!(!Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: -1.0
+        }
+        .is_valid());
+    }
+}

@@ -1,0 +1,1279 @@
+//! The runtime `World`: a coarse cloth stepped with linear FEM + warped stiffness, hinge bending,
+//! linearized implicit Euler and a filtered block-Jacobi PCG (paper §5, DESIGN.md).
+//!
+//! Memory is the caller's: [`Capacity::world_bytes`] says how many bytes a world of a given
+//! capacity needs (a `const fn`, so it can size a `static`), and [`World::new`] carves every
+//! array out of that block. Nothing allocates, nothing panics; init either builds the whole
+//! world or returns an error and leaves nothing behind.
+//!
+//! One step (per substep of length `h`):
+//! 1. per-node rotations `R_i` from the oriented-particles moment matrix (Eq. 14–16);
+//! 2. forces: warped elasticity `f_i = -R_i Σ_j K_ij (R_iᵀ x_j - x0_j)` (Eq. 17) on the constant
+//!    rest stiffness `K` assembled once from each triangle's `C^H`; bending `-B Q x` with the
+//!    constant isometric Hessian `Q`; gravity, wind, Rayleigh damping `D = αM + β K_w`;
+//! 3. the linearized implicit Euler system of Baraff & Witkin (Eq. 18 discretized):
+//!    `[(1+hα) M + (hβ + h²) K_w] Δv = h (f - (β + h) K_w v)` with `K_w = R K Rᵀ + B Q`,
+//!    symmetric, applied as `R (K (Rᵀ p))` on the constant `K` (no re-assembly);
+//! 4. pins and contacts as the per-vertex filter of the modified PCG;
+//! 5. `v += Δv`, `x += h v`, projection out of colliders with Coulomb friction.
+
+use glam::{Mat3A, Quat, Vec3A};
+
+use crate::blob::Blob;
+use crate::collide::{self, Collider, Shape};
+use crate::mesh::{self, MeshError, Topology};
+use crate::pcg::{self, Operator};
+use crate::rotation::{self, RestRing};
+use crate::sparse::{self, Pattern};
+use crate::{bending, membrane};
+
+/// Scene effects, a bit set. An effect that is off costs nothing in the step.
+pub mod effects {
+    pub const GRAVITY: u32 = 1 << 0;
+    pub const BENDING: u32 = 1 << 1;
+    /// Rayleigh damping `αM + βK`.
+    pub const DAMPING: u32 = 1 << 2;
+    pub const PINS: u32 = 1 << 3;
+    pub const COLLISION: u32 = 1 << 4;
+    /// Wind and air drag.
+    pub const WIND: u32 = 1 << 5;
+    /// Per-node rotations (warped stiffness). Off: plain linear FEM (for the accuracy study).
+    pub const WARPING: u32 = 1 << 6;
+    /// A cloth at rest goes to sleep and costs nothing until something wakes it.
+    pub const SLEEP: u32 = 1 << 7;
+    /// Localization and recomputed normals are the caller's to run; the bits are carried here
+    /// so one effect set describes a scene.
+    pub const LOCALIZE: u32 = 1 << 8;
+    pub const NORMALS: u32 = 1 << 9;
+    pub const ALL: u32 = (1 << 10) - 1;
+}
+
+/// How much a world holds. Fixed at init; memory is [`Capacity::world_bytes`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capacity {
+    pub vertices: u32,
+    pub triangles: u32,
+    /// Unique edges (a grid of n×n vertices has 3(n-1)² + 2(n-1)).
+    pub edges: u32,
+    pub colliders: u32,
+    pub pins: u32,
+}
+
+impl Capacity {
+    /// The default C build: a 64×64-vertex cloth and 8 colliders.
+    pub const DEFAULT: Capacity = Capacity {
+        vertices: 4096,
+        triangles: 8192,
+        edges: 12288,
+        colliders: 8,
+        pins: 64,
+    };
+
+    /// Capacity for an `n × n`-vertex grid sheet (benchmarks, tests).
+    pub const fn grid(n: u32) -> Capacity {
+        let s = if n > 1 { n - 1 } else { 0 };
+        Capacity {
+            vertices: n * n,
+            triangles: 2 * s * s,
+            edges: 3 * s * s + 2 * s,
+            colliders: 8,
+            pins: 64,
+        }
+    }
+
+    const fn v(&self) -> usize {
+        self.vertices as usize
+    }
+    const fn t(&self) -> usize {
+        self.triangles as usize
+    }
+    const fn e(&self) -> usize {
+        self.edges as usize
+    }
+    /// Couplings of the block matrix: edges plus hinges (at most one per edge).
+    const fn b(&self) -> usize {
+        2 * self.edges as usize
+    }
+    const fn c(&self) -> usize {
+        self.colliders as usize
+    }
+    const fn p(&self) -> usize {
+        self.pins as usize
+    }
+}
+
+/// Declares the world's arrays once: the struct, the byte count and the carving all come from
+/// this one list, so they cannot disagree.
+macro_rules! arrays {
+    ($cap:ident; $( $(#[$doc:meta])* $field:ident : $ty:ty = [$count:expr; $init:expr] ),* $(,)?) => {
+        struct Arrays<'a> { $( $(#[$doc])* $field: &'a mut [$ty], )* }
+
+        impl Capacity {
+            /// Bytes a world of this capacity needs (including worst-case alignment padding).
+            pub const fn world_bytes(&self) -> usize {
+                let $cap = self;
+                0 $( + slot_bytes::<$ty>($count) )*
+            }
+        }
+
+        fn carve<'a>($cap: &Capacity, carver: &mut Carver<'a>) -> Result<Arrays<'a>, InitError> {
+            Ok(Arrays { $( $field: carver.take::<$ty>($count, $init)?, )* })
+        }
+    };
+}
+
+arrays! { cap;
+    /// Positions, velocities and the state at the start of the step (restored on failure).
+    x: Vec3A = [cap.v(); Vec3A::ZERO],
+    v: Vec3A = [cap.v(); Vec3A::ZERO],
+    x_start: Vec3A = [cap.v(); Vec3A::ZERO],
+    v_start: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Rest positions `(u, v, 0)`.
+    rest: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Lumped masses (kg).
+    mass: f32 = [cap.v(); 0.0],
+    /// Lumped area (m²), for wind.
+    area: f32 = [cap.v(); 0.0],
+    triangles: [u32; 3] = [cap.t(); [0; 3]],
+    tri_sign: f32 = [cap.t(); 0.0],
+    tri_material: u32 = [cap.t(); 0],
+    vt_start: u32 = [cap.v() + 1; 0],
+    vt: u32 = [3 * cap.t(); 0],
+    edges: [u32; 2] = [cap.e(); [0; 2]],
+    edge_tris: [u32; 2] = [cap.e(); [0; 2]],
+    hinges: [u32; 4] = [cap.e(); [0; 4]],
+    ring_start: u32 = [cap.v() + 1; 0],
+    ring: u32 = [2 * cap.e(); 0],
+    scratch_a: u32 = [cap.v(); 0],
+    scratch_b: u32 = [cap.v(); 0],
+    couplings: [u32; 2] = [cap.b(); [0; 2]],
+    /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
+    row_start: u32 = [cap.v() + 1; 0],
+    cols: u32 = [cap.b(); 0],
+    /// Membrane stiffness `K` on the rest shape (N/m), assembled once.
+    k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
+    k_off: Mat3A = [cap.b(); Mat3A::ZERO],
+    /// `K x0`, constant: the rest term of Eq. 17.
+    k_rest: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
+    q_diag: f32 = [cap.v(); 0.0],
+    q_off: f32 = [cap.b(); 0.0],
+    rot: Quat = [cap.v(); Quat::IDENTITY],
+    rings: RestRing = [cap.v(); RestRing::default()],
+    normals: Vec3A = [cap.v(); Vec3A::Z],
+    /// Right-hand side, solution (warm start) and PCG work vectors.
+    rhs: Vec3A = [cap.v(); Vec3A::ZERO],
+    dv: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_r: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_c: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_q: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_s: Vec3A = [cap.v(); Vec3A::ZERO],
+    tmp: Vec3A = [cap.v(); Vec3A::ZERO],
+    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    /// Pin index of each vertex, or `mesh::NONE`.
+    pin_of: u32 = [cap.v(); mesh::NONE],
+    pin_vertex: u32 = [cap.p(); 0],
+    pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
+    pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
+    colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
+}
+
+const fn slot_bytes<T>(n: usize) -> usize {
+    n * core::mem::size_of::<T>() + core::mem::align_of::<T>() - 1
+}
+
+/// Hands out typed, initialized slices from a caller's byte block.
+struct Carver<'a> {
+    rest: &'a mut [u8],
+    needed: usize,
+}
+
+impl<'a> Carver<'a> {
+    fn take<T: Copy>(&mut self, n: usize, init: T) -> Result<&'a mut [T], InitError> {
+        let size = core::mem::size_of::<T>();
+        let align = core::mem::align_of::<T>();
+        let addr = self.rest.as_ptr() as usize;
+        let pad = (align - addr % align) % align;
+        let bytes = n.checked_mul(size).ok_or(InitError::CapacityTooLarge)?;
+        self.needed = self.needed.saturating_add(pad + bytes);
+        if self.rest.len() < pad + bytes {
+            return Err(InitError::MemoryTooSmall);
+        }
+        let rest = core::mem::take(&mut self.rest);
+        let (_, rest) = rest.split_at_mut(pad);
+        let (head, tail) = rest.split_at_mut(bytes);
+        self.rest = tail;
+        let ptr = head.as_mut_ptr().cast::<T>();
+        // SAFETY: `head` is an exclusive borrow of `n * size_of::<T>()` bytes for 'a, and `pad`
+        // made its start aligned for T. Every element is written with `init` before the slice
+        // is formed, so no byte pattern of the caller's memory is ever read as a T. T: Copy has
+        // no destructor, so forgetting the values when the block is reused is fine.
+        unsafe {
+            for i in 0..n {
+                ptr.add(i).write(init);
+            }
+            Ok(core::slice::from_raw_parts_mut(ptr, n))
+        }
+    }
+}
+
+/// A material as the world uses it: stiffness (C^H for a coarse cloth, the pixel's own C for
+/// the fine reference), areal density and bending stiffness.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Membrane stiffness, N/m, Voigt `[11, 22, 12]`, engineering shear.
+    pub stiffness: [[f64; 3]; 3],
+    /// kg/m².
+    pub density: f64,
+    /// N·m.
+    pub bending: f64,
+}
+
+/// Where triangle materials come from: the cells of a blob (index = cell index) or a table.
+#[derive(Clone, Copy)]
+pub enum Materials<'a> {
+    Blob(&'a Blob<'a>),
+    Table(&'a [Material]),
+}
+
+impl Materials<'_> {
+    pub fn get(&self, i: u32) -> Option<Material> {
+        match self {
+            Materials::Blob(b) => b.cell(i as usize).map(|c| Material {
+                stiffness: c.stiffness,
+                density: c.density,
+                bending: c.bending,
+            }),
+            Materials::Table(t) => t.get(i as usize).copied(),
+        }
+    }
+}
+
+/// The cloth handed to [`World::new`]. Borrowed; nothing is kept.
+#[derive(Clone, Copy)]
+pub struct ClothDef<'a> {
+    /// Initial positions (m).
+    pub positions: &'a [[f32; 3]],
+    /// Material coordinates (u, v) in metres: the rest shape.
+    pub uvs: &'a [[f32; 2]],
+    pub triangles: &'a [[u32; 3]],
+    /// Per triangle, its material (the cell index in a blob).
+    pub materials: &'a [u32],
+}
+
+/// Scene parameters. Can change between steps ([`World::set_settings`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Bit set of [`effects`].
+    pub effects: u32,
+    /// Frame time step (s) used by [`World::step`].
+    pub time_step: f32,
+    /// Substeps per step (≥ 1).
+    pub substeps: u32,
+    /// m/s².
+    pub gravity: [f32; 3],
+    /// Rayleigh damping: mass factor α (1/s) and stiffness factor β (s).
+    pub damping_mass: f32,
+    pub damping_stiffness: f32,
+    /// Wind velocity (m/s) and drag coefficient (kg/(m²·s)): the force on a vertex is
+    /// `drag · area · ((wind - v)·n) n`.
+    pub wind: [f32; 3],
+    pub drag: f32,
+    /// PCG relative residual and iteration cap.
+    pub tolerance: f32,
+    pub max_iterations: u32,
+    /// Rotation extraction iterations per node per substep (warm started).
+    pub rotation_iterations: u32,
+    /// Sleep when every vertex is slower than this (m/s) for `sleep_frames` steps.
+    pub sleep_velocity: f32,
+    pub sleep_frames: u32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            effects: effects::GRAVITY
+                | effects::BENDING
+                | effects::DAMPING
+                | effects::PINS
+                | effects::COLLISION
+                | effects::WARPING,
+            time_step: 1.0 / 60.0,
+            substeps: 1,
+            gravity: [0.0, 0.0, -9.81],
+            damping_mass: 0.1,
+            damping_stiffness: 0.001,
+            wind: [0.0; 3],
+            drag: 0.0,
+            tolerance: 1e-4,
+            max_iterations: 200,
+            rotation_iterations: 4,
+            sleep_velocity: 1e-3,
+            sleep_frames: 30,
+        }
+    }
+}
+
+impl Settings {
+    /// Checks every field; `Err` names the first bad one.
+    pub fn validate(&self) -> Result<(), InitError> {
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        let bad = |field| Err(InitError::InvalidSetting { field });
+        if !(self.time_step.is_finite() && self.time_step > 0.0) {
+            return bad("time_step");
+        }
+        if self.substeps == 0 || self.substeps > 1000 {
+            return bad("substeps");
+        }
+        if !finite(&self.gravity) {
+            return bad("gravity");
+        }
+        if !(self.damping_mass.is_finite() && self.damping_mass >= 0.0) {
+            return bad("damping_mass");
+        }
+        if !(self.damping_stiffness.is_finite() && self.damping_stiffness >= 0.0) {
+            return bad("damping_stiffness");
+        }
+        if !finite(&self.wind) {
+            return bad("wind");
+        }
+        if !(self.drag.is_finite() && self.drag >= 0.0) {
+            return bad("drag");
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return bad("tolerance");
+        }
+        if self.max_iterations == 0 {
+            return bad("max_iterations");
+        }
+        if !(self.sleep_velocity.is_finite() && self.sleep_velocity >= 0.0) {
+            return bad("sleep_velocity");
+        }
+        if self.effects & !effects::ALL != 0 {
+            return bad("effects");
+        }
+        Ok(())
+    }
+}
+
+/// Why [`World::new`] refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InitError {
+    /// The memory block is smaller than `Capacity::world_bytes()`.
+    MemoryTooSmall,
+    CapacityTooLarge,
+    /// The cloth does not fit: which capacity, how much was needed.
+    VertexCapacity { needed: u32, capacity: u32 },
+    TriangleCapacity { needed: u32, capacity: u32 },
+    EdgeCapacity { capacity: u32 },
+    Mesh(MeshError),
+    /// `materials` has a different length than `triangles`.
+    MaterialCount,
+    /// A triangle names a material (cell) that does not exist.
+    MaterialOutOfRange { triangle: u32, material: u32 },
+    /// A material's numbers are unusable (non-finite, non-positive density, not SPD).
+    InvalidMaterial { material: u32 },
+    InvalidSetting { field: &'static str },
+    /// An internal consistency check failed (a bug if it happens; never a panic).
+    Internal,
+}
+
+impl From<MeshError> for InitError {
+    fn from(e: MeshError) -> Self {
+        match e {
+            MeshError::EdgeCapacity { capacity } => InitError::EdgeCapacity { capacity },
+            e => InitError::Mesh(e),
+        }
+    }
+}
+
+/// Why a step failed. The world keeps the state it had before the step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepError {
+    InvalidTimeStep,
+    /// A pin target is NaN or infinite.
+    NonFinitePin { vertex: u32 },
+    /// The solver broke down (indefinite or non-finite system).
+    SolverBreakdown,
+    /// The step produced NaN or infinite positions or velocities.
+    NonFiniteState,
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// PCG iterations summed over substeps.
+    pub iterations: u32,
+    /// Largest final relative residual over substeps.
+    pub residual: f32,
+    /// Every substep's solve reached the tolerance.
+    pub converged: bool,
+    pub substeps: u32,
+    /// The world was asleep and did nothing.
+    pub asleep: bool,
+    /// Vertices in contact with a collider at the end of the step.
+    pub contacts: u32,
+}
+
+/// Errors of the pin and collider setters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EditError {
+    VertexOutOfRange,
+    NonFinite,
+    PinCapacity,
+    ColliderCapacity,
+    ColliderOutOfRange,
+    InvalidCollider,
+}
+
+/// A coarse cloth and everything needed to step it, living in a caller-owned block.
+pub struct World<'a> {
+    a: Arrays<'a>,
+    capacity: Capacity,
+    settings: Settings,
+    n: usize,
+    nt: usize,
+    ne: usize,
+    nh: usize,
+    nnz: usize,
+    pins: usize,
+    colliders: usize,
+    /// Per-vertex lumped mass sum, kg.
+    total_mass: f64,
+    calm_frames: u32,
+    asleep: bool,
+    last: StepStats,
+}
+
+impl<'a> World<'a> {
+    /// Builds a world for `cloth` in `memory` (at least `capacity.world_bytes()` bytes).
+    pub fn new(
+        memory: &'a mut [u8],
+        capacity: Capacity,
+        cloth: &ClothDef<'_>,
+        materials: Materials<'_>,
+        settings: Settings,
+    ) -> Result<World<'a>, InitError> {
+        settings.validate()?;
+        let (n, nt) = (cloth.positions.len(), cloth.triangles.len());
+        if n > capacity.v() {
+            return Err(InitError::VertexCapacity {
+                needed: n as u32,
+                capacity: capacity.vertices,
+            });
+        }
+        if nt > capacity.t() {
+            return Err(InitError::TriangleCapacity {
+                needed: nt as u32,
+                capacity: capacity.triangles,
+            });
+        }
+        if cloth.uvs.len() != n {
+            return Err(InitError::Mesh(MeshError::BufferTooSmall));
+        }
+        if cloth.materials.len() != nt {
+            return Err(InitError::MaterialCount);
+        }
+        if memory.len() < capacity.world_bytes() {
+            return Err(InitError::MemoryTooSmall);
+        }
+        let mut carver = Carver {
+            rest: memory,
+            needed: 0,
+        };
+        let a = carve(&capacity, &mut carver)?;
+        let mut w = World {
+            a,
+            capacity,
+            settings,
+            n,
+            nt,
+            ne: 0,
+            nh: 0,
+            nnz: 0,
+            pins: 0,
+            colliders: 0,
+            total_mass: 0.0,
+            calm_frames: 0,
+            asleep: false,
+            last: StepStats::default(),
+        };
+        w.build(cloth, materials)?;
+        Ok(w)
+    }
+
+    fn build(&mut self, cloth: &ClothDef<'_>, materials: Materials<'_>) -> Result<(), InitError> {
+        let (n, nt) = (self.n, self.nt);
+        let a = &mut self.a;
+        mesh::validate(cloth.positions, cloth.uvs, cloth.triangles, &mut a.tri_sign[..nt])?;
+        // Materials: every triangle's must exist and be usable.
+        for (t, &m) in cloth.materials.iter().enumerate() {
+            let mat = materials.get(m).ok_or(InitError::MaterialOutOfRange {
+                triangle: t as u32,
+                material: m,
+            })?;
+            let ok = membrane::is_spd(&mat.stiffness)
+                && mat.density.is_finite()
+                && mat.density > 0.0
+                && mat.bending.is_finite()
+                && mat.bending >= 0.0;
+            if !ok {
+                return Err(InitError::InvalidMaterial { material: m });
+            }
+        }
+        a.triangles[..nt].copy_from_slice(cloth.triangles);
+        a.tri_material[..nt].copy_from_slice(cloth.materials);
+        for i in 0..n {
+            let p = cloth.positions[i];
+            let uv = cloth.uvs[i];
+            a.x[i] = Vec3A::from(p);
+            a.rest[i] = Vec3A::new(uv[0], uv[1], 0.0);
+        }
+        let counts = mesh::build(
+            n,
+            &a.triangles[..nt],
+            &a.tri_sign[..nt],
+            &mut Topology {
+                vt_start: a.vt_start,
+                vt: a.vt,
+                edges: a.edges,
+                edge_tris: a.edge_tris,
+                hinges: a.hinges,
+                ring_start: a.ring_start,
+                ring: a.ring,
+                scratch_a: a.scratch_a,
+                scratch_b: a.scratch_b,
+            },
+        )?;
+        self.ne = counts.edges;
+        self.nh = counts.hinges;
+        let nc = mesh::couplings(&a.edges[..self.ne], &a.hinges[..self.nh], a.couplings)?;
+        self.nnz = sparse::build_pattern(n, &a.couplings[..nc], a.row_start, a.cols)
+            .map_err(|_| InitError::EdgeCapacity {
+                capacity: self.capacity.edges,
+            })?;
+
+        // Membrane stiffness K and lumped masses, triangle by triangle (Eq. 10–11 on the coarse
+        // mesh with the cell's C^H).
+        let pattern = Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..self.nnz],
+        };
+        let mut total_mass = 0.0f64;
+        for t in 0..nt {
+            let tri = a.triangles[t];
+            let mat = materials.get(a.tri_material[t]).ok_or(InitError::Internal)?;
+            let uv = tri.map(|i| {
+                let r = a.rest[i as usize];
+                [r.x as f64, r.y as f64]
+            });
+            let g = membrane::gradients(uv).ok_or(InitError::Mesh(MeshError::DegenerateUv {
+                triangle: t as u32,
+            }))?;
+            let ke = membrane::element_stiffness(&g, &mat.stiffness);
+            for (ai, &i) in tri.iter().enumerate() {
+                let m = mat.density * g.area / 3.0;
+                a.mass[i as usize] += m as f32;
+                a.area[i as usize] += (g.area / 3.0) as f32;
+                total_mass += m;
+                for (bi, &j) in tri.iter().enumerate() {
+                    if i > j {
+                        continue; // the symmetric twin is added with (j, i)
+                    }
+                    let k = ke[ai][bi];
+                    let block = Mat3A::from_cols(
+                        Vec3A::new(k[0][0] as f32, k[1][0] as f32, 0.0),
+                        Vec3A::new(k[0][1] as f32, k[1][1] as f32, 0.0),
+                        Vec3A::ZERO,
+                    );
+                    sparse::add_block(&pattern, &mut a.k_diag[..n], &mut a.k_off[..self.nnz], i as usize, j as usize, block)
+                        .map_err(|_| InitError::Internal)?;
+                }
+            }
+        }
+        self.total_mass = total_mass;
+
+        // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
+        // stiffness of its two triangles.
+        for h in 0..self.nh {
+            let hinge = a.hinges[h];
+            let [t0, t1] = a.edge_tris[hinge_edge(a.edges, self.ne, hinge).ok_or(InitError::Internal)?];
+            let b0 = materials.get(a.tri_material[t0 as usize]).map(|m| m.bending).unwrap_or(0.0);
+            let b1 = materials.get(a.tri_material[t1 as usize]).map(|m| m.bending).unwrap_or(0.0);
+            let uv = hinge.map(|i| {
+                let r = a.rest[i as usize];
+                [r.x as f64, r.y as f64]
+            });
+            let Some(q) = bending::hinge_hessian(uv, 0.5 * (b0 + b1)) else {
+                continue; // a degenerate hinge bends freely rather than blowing up
+            };
+            for (ai, &i) in hinge.iter().enumerate() {
+                for (bi, &j) in hinge.iter().enumerate() {
+                    if i > j {
+                        continue;
+                    }
+                    sparse::add_scalar(&pattern, &mut a.q_diag[..n], &mut a.q_off[..self.nnz], i as usize, j as usize, q[ai][bi] as f32)
+                        .map_err(|_| InitError::Internal)?;
+                }
+            }
+        }
+
+        // K x0: the constant rest term of Eq. 17.
+        sparse::mul(&a.k_diag[..n], &pattern, &a.k_off[..self.nnz], &a.rest[..n], &mut a.k_rest[..n])
+            .map_err(|_| InitError::Internal)?;
+
+        rotation::rest_rings(&a.ring_start[..n + 1], &a.ring[..2 * self.ne], &a.mass[..n], &a.rest[..n], &mut a.rings[..n])
+            .map_err(|_| InitError::Internal)?;
+        // Warm start the rotations from the initial placement.
+        self.update_rotations(8);
+        Ok(())
+    }
+
+    // ----- accessors -----
+
+    pub fn vertex_count(&self) -> usize {
+        self.n
+    }
+    pub fn triangle_count(&self) -> usize {
+        self.nt
+    }
+    pub fn edge_count(&self) -> usize {
+        self.ne
+    }
+    pub fn hinge_count(&self) -> usize {
+        self.nh
+    }
+    pub fn capacity(&self) -> Capacity {
+        self.capacity
+    }
+    pub fn positions(&self) -> &[Vec3A] {
+        &self.a.x[..self.n]
+    }
+    pub fn velocities(&self) -> &[Vec3A] {
+        &self.a.v[..self.n]
+    }
+    pub fn masses(&self) -> &[f32] {
+        &self.a.mass[..self.n]
+    }
+    pub fn rest_positions(&self) -> &[Vec3A] {
+        &self.a.rest[..self.n]
+    }
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.a.triangles[..self.nt]
+    }
+    pub fn triangle_materials(&self) -> &[u32] {
+        &self.a.tri_material[..self.nt]
+    }
+    pub fn rotations(&self) -> &[Quat] {
+        &self.a.rot[..self.n]
+    }
+    pub fn normals(&self) -> &[Vec3A] {
+        &self.a.normals[..self.n]
+    }
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+    pub fn last_step(&self) -> StepStats {
+        self.last
+    }
+    pub fn is_asleep(&self) -> bool {
+        self.asleep
+    }
+    pub fn total_mass(&self) -> f64 {
+        self.total_mass
+    }
+
+    /// Changes scene parameters; wakes the world when anything changed.
+    pub fn set_settings(&mut self, settings: Settings) -> Result<(), InitError> {
+        settings.validate()?;
+        if settings != self.settings {
+            self.settings = settings;
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// Wakes a sleeping world.
+    pub fn wake(&mut self) {
+        self.asleep = false;
+        self.calm_frames = 0;
+    }
+
+    /// Overwrites positions (and zeroes nothing else); wakes the world.
+    pub fn set_positions(&mut self, positions: &[[f32; 3]]) -> Result<(), EditError> {
+        if positions.len() != self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        if positions.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        for (x, p) in self.a.x.iter_mut().zip(positions) {
+            *x = Vec3A::from(*p);
+        }
+        self.wake();
+        Ok(())
+    }
+
+    /// Overwrites velocities; wakes the world.
+    pub fn set_velocities(&mut self, velocities: &[[f32; 3]]) -> Result<(), EditError> {
+        if velocities.len() != self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        if velocities.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        for (v, p) in self.a.v.iter_mut().zip(velocities) {
+            *v = Vec3A::from(*p);
+        }
+        self.wake();
+        Ok(())
+    }
+
+    // ----- pins -----
+
+    /// Pins `vertex` to `target` (m). A pin that already exists gets the new target; the vertex
+    /// moves there over the next step (linearly across substeps). Wakes the world when the
+    /// target changed. Targets are checked at step time too, so a NaN target set through a
+    /// raw pointer in C is still caught.
+    pub fn set_pin(&mut self, vertex: u32, target: [f32; 3]) -> Result<(), EditError> {
+        let vi = vertex as usize;
+        if vi >= self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        let target = Vec3A::from(target);
+        let p = self.a.pin_of[vi];
+        if p != mesh::NONE {
+            let slot = &mut self.a.pin_target[p as usize];
+            if *slot != target {
+                *slot = target;
+                self.wake();
+            }
+            return Ok(());
+        }
+        if self.pins >= self.capacity.p() {
+            return Err(EditError::PinCapacity);
+        }
+        let p = self.pins;
+        self.a.pin_vertex[p] = vertex;
+        self.a.pin_target[p] = target;
+        // A new pin starts where the vertex is, so it is not yanked in one substep.
+        self.a.pin_previous[p] = self.a.x[vi];
+        self.a.pin_of[vi] = p as u32;
+        self.pins += 1;
+        self.wake();
+        Ok(())
+    }
+
+    /// Releases the pin of `vertex` (no error if it had none).
+    pub fn remove_pin(&mut self, vertex: u32) -> Result<(), EditError> {
+        let vi = vertex as usize;
+        if vi >= self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        let p = self.a.pin_of[vi];
+        if p == mesh::NONE {
+            return Ok(());
+        }
+        // Swap-remove, keeping pin_of consistent.
+        let last = self.pins - 1;
+        let p = p as usize;
+        self.a.pin_vertex[p] = self.a.pin_vertex[last];
+        self.a.pin_target[p] = self.a.pin_target[last];
+        self.a.pin_previous[p] = self.a.pin_previous[last];
+        self.a.pin_of[self.a.pin_vertex[p] as usize] = p as u32;
+        self.a.pin_of[vi] = mesh::NONE;
+        self.pins = last;
+        self.wake();
+        Ok(())
+    }
+
+    pub fn pin_count(&self) -> usize {
+        self.pins
+    }
+
+    // ----- colliders -----
+
+    /// Adds a collider; returns its index.
+    pub fn add_collider(&mut self, collider: Collider) -> Result<u32, EditError> {
+        if !collider.is_valid() {
+            return Err(EditError::InvalidCollider);
+        }
+        if self.colliders >= self.capacity.c() {
+            return Err(EditError::ColliderCapacity);
+        }
+        self.a.colliders[self.colliders] = collider;
+        self.colliders += 1;
+        self.wake();
+        Ok(self.colliders as u32 - 1)
+    }
+
+    /// Moves collider `index` to `shape`; the next step sweeps it from where it was.
+    pub fn set_collider_shape(&mut self, index: u32, shape: Shape) -> Result<(), EditError> {
+        let c = self
+            .a
+            .colliders
+            .get_mut(..self.colliders)
+            .and_then(|c| c.get_mut(index as usize))
+            .ok_or(EditError::ColliderOutOfRange)?;
+        if !shape.is_valid() {
+            return Err(EditError::InvalidCollider);
+        }
+        if c.shape != shape {
+            c.shape = shape;
+            self.wake();
+        }
+        Ok(())
+    }
+
+    pub fn collider(&self, index: u32) -> Option<&Collider> {
+        self.a.colliders[..self.colliders].get(index as usize)
+    }
+
+    pub fn collider_count(&self) -> usize {
+        self.colliders
+    }
+
+    /// Removes all colliders.
+    pub fn clear_colliders(&mut self) {
+        self.colliders = 0;
+        self.wake();
+    }
+
+    // ----- stepping -----
+
+    /// Advances by `settings.time_step`.
+    pub fn step(&mut self) -> Result<StepStats, StepError> {
+        self.step_dt(self.settings.time_step)
+    }
+
+    /// Advances by `dt` seconds in `settings.substeps` substeps. On error the world keeps the
+    /// state it had before the call.
+    pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::InvalidTimeStep);
+        }
+        let eff = self.settings.effects;
+        let pins_on = eff & effects::PINS != 0;
+        if pins_on {
+            for p in 0..self.pins {
+                if !self.a.pin_target[p].is_finite() {
+                    return Err(StepError::NonFinitePin {
+                        vertex: self.a.pin_vertex[p],
+                    });
+                }
+            }
+        }
+        if self.asleep && eff & effects::SLEEP != 0 {
+            self.last = StepStats {
+                asleep: true,
+                converged: true,
+                ..StepStats::default()
+            };
+            return Ok(self.last);
+        }
+        let n = self.n;
+        self.a.x_start[..n].copy_from_slice(&self.a.x[..n]);
+        self.a.v_start[..n].copy_from_slice(&self.a.v[..n]);
+        let substeps = self.settings.substeps.max(1);
+        let h = dt / substeps as f32;
+        let mut stats = StepStats {
+            converged: true,
+            substeps,
+            ..StepStats::default()
+        };
+        for s in 0..substeps {
+            let t = (s + 1) as f32 / substeps as f32;
+            match self.substep(h, t) {
+                Ok(sub) => {
+                    stats.iterations += sub.iterations;
+                    stats.residual = stats.residual.max(sub.residual);
+                    stats.converged &= sub.converged;
+                    stats.contacts = sub.contacts;
+                }
+                Err(e) => {
+                    self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
+                    self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
+                    // Rotations are only warm starts; re-derive them from the restored state.
+                    self.update_rotations(8);
+                    return Err(e);
+                }
+            }
+        }
+        // The sweep of colliders and pins ends where the engine put them.
+        for c in &mut self.a.colliders[..self.colliders] {
+            c.previous = c.shape;
+        }
+        for p in 0..self.pins {
+            self.a.pin_previous[p] = self.a.pin_target[p];
+        }
+        if eff & effects::SLEEP != 0 {
+            let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
+            let calm = self.a.v[..n].iter().all(|v| v.length_squared() <= limit);
+            self.calm_frames = if calm { self.calm_frames + 1 } else { 0 };
+            if self.calm_frames >= self.settings.sleep_frames.max(1) {
+                self.asleep = true;
+                self.a.v[..n].fill(Vec3A::ZERO);
+            }
+        }
+        self.last = stats;
+        Ok(stats)
+    }
+
+    fn update_rotations(&mut self, iterations: u32) {
+        let n = self.n;
+        let a = &mut self.a;
+        if rotation::vertex_normals(&a.triangles[..self.nt], &a.tri_sign[..self.nt], &a.x[..n], &mut a.normals[..n]).is_err() {
+            return;
+        }
+        let _ = rotation::update_rotations(
+            &a.ring_start[..n + 1],
+            &a.ring[..2 * self.ne],
+            &a.mass[..n],
+            &a.rest[..n],
+            &a.rings[..n],
+            &a.x[..n],
+            &a.normals[..n],
+            &mut a.rot[..n],
+            iterations,
+        );
+    }
+
+    /// One linearized implicit Euler substep of length `h`; `t` ∈ (0, 1] is how far through the
+    /// frame it ends (for sweeping pins and colliders).
+    fn substep(&mut self, h: f32, t: f32) -> Result<pcg::Stats, StepError> {
+        let n = self.n;
+        let st = self.settings;
+        let eff = st.effects;
+        let warping = eff & effects::WARPING != 0;
+        let bending_on = eff & effects::BENDING != 0;
+        let damping_on = eff & effects::DAMPING != 0;
+        let (alpha, beta) = if damping_on {
+            (st.damping_mass, st.damping_stiffness)
+        } else {
+            (0.0, 0.0)
+        };
+        if warping {
+            self.update_rotations(st.rotation_iterations);
+        } else {
+            self.a.rot[..n].fill(Quat::IDENTITY);
+        }
+        let a = &mut self.a;
+        let pattern = Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..self.nnz],
+        };
+        let (x, v, rot) = (&a.x[..n], &a.v[..n], &a.rot[..n]);
+
+        // --- forces, accumulated into rhs ---
+        let rhs = &mut a.rhs[..n];
+        // Warped elasticity, Eq. 17: f_i = -R_i (Σ_j K_ij R_iᵀ x_j - (K x0)_i).
+        warped_force(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.k_rest[..n], rot, x, rhs, warping);
+        // Per-node warping is not translation-symmetric between nodes with different R_i
+        // (ghost forces, Müller et al. 2002): internal forces must sum to zero, so the net is
+        // removed, weighted by mass. Rigid motion gives zero force before and after this.
+        let mut net = Vec3A::ZERO;
+        for f in rhs.iter() {
+            net += *f;
+        }
+        if self.total_mass > 0.0 {
+            let per_kg = net / self.total_mass as f32;
+            for (f, &m) in rhs.iter_mut().zip(&a.mass[..n]) {
+                *f -= per_kg * m;
+            }
+        }
+        // Implicit and Rayleigh terms: -(β + h) K_w v  (K_w = R K Rᵀ + B Q).
+        let c_kv = beta + h;
+        stiffness_apply(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.q_diag[..n], &a.q_off[..self.nnz], rot, bending_on, warping, v, &mut a.tmp[..n], &mut a.w_r[..n]);
+        for (f, kv) in rhs.iter_mut().zip(&a.w_r[..n]) {
+            *f -= *kv * c_kv;
+        }
+        if bending_on {
+            // Bending force -B Q x (Q annihilates the flat rest shape, so no rest term).
+            a.w_r[..n].fill(Vec3A::ZERO);
+            let _ = sparse::mul_scalar_add(&a.q_diag[..n], &pattern, &a.q_off[..self.nnz], 1.0, x, &mut a.w_r[..n]);
+            for (f, q) in rhs.iter_mut().zip(&a.w_r[..n]) {
+                *f -= *q;
+            }
+        }
+        let gravity = Vec3A::from(st.gravity);
+        let wind = Vec3A::from(st.wind);
+        for i in 0..n {
+            let m = a.mass[i];
+            let mut f = rhs[i];
+            if eff & effects::GRAVITY != 0 {
+                f += gravity * m;
+            }
+            if alpha > 0.0 {
+                f -= v[i] * (alpha * m);
+            }
+            if eff & effects::WIND != 0 && st.drag > 0.0 {
+                let nrm = a.normals[i];
+                f += nrm * (st.drag * a.area[i] * (wind - v[i]).dot(nrm));
+            }
+            rhs[i] = f * h;
+        }
+
+        // --- constraints: the PCG filter and the prescribed velocity changes ---
+        let mut constrained = false;
+        let dv = &mut a.dv[..n];
+        let filter = &mut a.filter[..n];
+        let collide_on = eff & effects::COLLISION != 0 && self.colliders > 0;
+        let pins_on = eff & effects::PINS != 0 && self.pins > 0;
+        if collide_on || pins_on {
+            filter.fill(Mat3A::IDENTITY);
+        }
+        if collide_on {
+            for i in 0..n {
+                let mut deepest = f32::INFINITY;
+                for c in &a.colliders[..self.colliders] {
+                    let shape = c.previous.lerp(&c.shape, t);
+                    let before = c.previous.lerp(&c.shape, t - h / st.time_step.max(h));
+                    let prox = shape.proximity(x[i]);
+                    let vs = shape.surface_velocity(&before, x[i], h);
+                    let vn_rel = (v[i] - vs).dot(prox.normal);
+                    // predicted distance at the end of the substep
+                    let predicted = prox.distance + h * vn_rel;
+                    if predicted < c.thickness && prox.distance - c.thickness < deepest {
+                        deepest = prox.distance - c.thickness;
+                        let nrm = prox.normal;
+                        // end the substep on the offset surface, moving with the collider
+                        let target_vn = vs.dot(nrm) + (c.thickness - prox.distance) / h;
+                        let dvn = target_vn - v[i].dot(nrm);
+                        filter[i] = Mat3A::IDENTITY - outer(nrm, nrm);
+                        dv[i] = filter[i] * dv[i] + nrm * dvn;
+                        constrained = true;
+                    }
+                }
+            }
+        }
+        if pins_on {
+            for p in 0..self.pins {
+                let i = a.pin_vertex[p] as usize;
+                let target = a.pin_previous[p].lerp(a.pin_target[p], t);
+                // land exactly on the target at the end of the substep
+                dv[i] = (target - x[i]) / h - v[i];
+                filter[i] = Mat3A::ZERO;
+                constrained = true;
+            }
+        }
+        if !constrained {
+            // no constraints: the previous Δv is the warm start as it is
+        }
+
+        // --- block-Jacobi preconditioner: inverse of the diagonal blocks of A ---
+        let c_m = 1.0 + h * alpha;
+        let c_k = h * beta + h * h;
+        for i in 0..n {
+            let r = if warping { Mat3A::from_quat(rot[i]) } else { Mat3A::IDENTITY };
+            let mut d = r * a.k_diag[i] * r.transpose();
+            if bending_on {
+                d += Mat3A::from_diagonal(glam::Vec3::splat(a.q_diag[i]));
+            }
+            let block = Mat3A::from_diagonal(glam::Vec3::splat(c_m * a.mass[i])) + d * c_k;
+            a.precond[i] = pcg::invert_block(block);
+        }
+
+        // --- solve ---
+        let op = SystemOperator {
+            pattern: &pattern,
+            k_diag: &a.k_diag[..n],
+            k_off: &a.k_off[..self.nnz],
+            q_diag: &a.q_diag[..n],
+            q_off: &a.q_off[..self.nnz],
+            rot,
+            mass: &a.mass[..n],
+            bending: bending_on,
+            warping,
+            c_m,
+            c_k,
+            tmp: core::cell::RefCell::new(&mut a.tmp[..n]),
+        };
+        let settings = pcg::Settings {
+            tolerance: st.tolerance,
+            max_iterations: st.max_iterations,
+        };
+        let work = pcg::Work {
+            r: &mut a.w_r[..n],
+            c: &mut a.w_c[..n],
+            q: &mut a.w_q[..n],
+            s: &mut a.w_s[..n],
+        };
+        let filter_arg = if constrained { Some(&filter[..]) } else { None };
+        let stats = pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
+            .map_err(|_| StepError::SolverBreakdown)?;
+
+        // --- integrate ---
+        for i in 0..n {
+            let vi = a.v[i] + dv[i];
+            a.v[i] = vi;
+            a.x[i] += vi * h;
+        }
+        let mut contacts = 0;
+        if collide_on {
+            for i in 0..n {
+                if a.pin_of[i] != mesh::NONE && pins_on {
+                    continue;
+                }
+                for c in &a.colliders[..self.colliders] {
+                    let shape = c.previous.lerp(&c.shape, t);
+                    let before = c.previous.lerp(&c.shape, t - h / st.time_step.max(h));
+                    let vs = shape.surface_velocity(&before, a.x[i], h);
+                    if collide::resolve(&shape, vs, c.thickness, c.friction, &mut a.x[i], &mut a.v[i]) {
+                        contacts += 1;
+                    }
+                }
+            }
+        }
+        if pins_on {
+            for p in 0..self.pins {
+                let i = a.pin_vertex[p] as usize;
+                a.x[i] = a.pin_previous[p].lerp(a.pin_target[p], t);
+            }
+        }
+        if !a.x[..n].iter().chain(&a.v[..n]).all(|p| p.is_finite()) {
+            return Err(StepError::NonFiniteState);
+        }
+        let _ = contacts;
+        Ok(pcg::Stats {
+            iterations: stats.iterations,
+            residual: stats.residual,
+            converged: stats.converged,
+        })
+        .map(|s| {
+            self.last.contacts = contacts;
+            s
+        })
+    }
+
+    /// The elastic force of Eq. 17 on the current state, for tests and diagnostics (N).
+    pub fn elastic_forces(&mut self, out: &mut [Vec3A]) -> bool {
+        let n = self.n;
+        if out.len() < n {
+            return false;
+        }
+        let warping = self.settings.effects & effects::WARPING != 0;
+        if warping {
+            self.update_rotations(16);
+        }
+        let a = &self.a;
+        let pattern = Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..self.nnz],
+        };
+        warped_force(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.k_rest[..n], &a.rot[..n], &a.x[..n], &mut out[..n], warping);
+        true
+    }
+}
+
+/// The index of the edge of `hinge` (its first two vertices) in the sorted edge list.
+fn hinge_edge(edges: &[[u32; 2]], ne: usize, hinge: [u32; 4]) -> Option<usize> {
+    let key = [hinge[0].min(hinge[1]), hinge[0].max(hinge[1])];
+    edges[..ne].binary_search(&key).ok()
+}
+
+fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
+    Mat3A::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// Eq. 17 with the rotations of the nodes: `out_i = -R_i (Σ_j K_ij R_iᵀ x_j - (K x0)_i)`.
+/// Without warping, plain linear elasticity `-(K x - K x0)`.
+#[allow(clippy::too_many_arguments)]
+fn warped_force(
+    p: &Pattern<'_>,
+    k_diag: &[Mat3A],
+    k_off: &[Mat3A],
+    k_rest: &[Vec3A],
+    rot: &[Quat],
+    x: &[Vec3A],
+    out: &mut [Vec3A],
+    warping: bool,
+) {
+    let n = x.len();
+    // out_i accumulates Σ_j K_ij R_iᵀ x_j in node i's rest frame.
+    for i in 0..n {
+        let ri = rot[i];
+        let xi = if warping { ri.inverse() * x[i] } else { x[i] };
+        out[i] = k_diag[i] * xi;
+    }
+    for i in 0..n {
+        let (s, e) = (p.row_start[i] as usize, p.row_start[i + 1] as usize);
+        let ri_t = rot[i].inverse();
+        let mut acc = Vec3A::ZERO;
+        for k in s..e {
+            let j = p.cols[k] as usize;
+            let kij = k_off[k];
+            if warping {
+                acc += kij * (ri_t * x[j]);
+                out[j] += kij.transpose() * (rot[j].inverse() * x[i]);
+            } else {
+                acc += kij * x[j];
+                out[j] += kij.transpose() * x[i];
+            }
+        }
+        out[i] += acc;
+    }
+    for i in 0..n {
+        let local = out[i] - k_rest[i];
+        out[i] = if warping { -(rot[i] * local) } else { -local };
+    }
+}
+
+/// `y = K_w x = R K Rᵀ x (+ B Q x)`; `tmp` holds `Rᵀ x`.
+#[allow(clippy::too_many_arguments)]
+fn stiffness_apply(
+    p: &Pattern<'_>,
+    k_diag: &[Mat3A],
+    k_off: &[Mat3A],
+    q_diag: &[f32],
+    q_off: &[f32],
+    rot: &[Quat],
+    bending: bool,
+    warping: bool,
+    x: &[Vec3A],
+    tmp: &mut [Vec3A],
+    y: &mut [Vec3A],
+) {
+    if warping {
+        for ((t, &xi), r) in tmp.iter_mut().zip(x).zip(rot) {
+            *t = r.inverse() * xi;
+        }
+        let _ = sparse::mul(k_diag, p, k_off, tmp, y);
+        for (yi, r) in y.iter_mut().zip(rot) {
+            *yi = *r * *yi;
+        }
+    } else {
+        let _ = sparse::mul(k_diag, p, k_off, x, y);
+    }
+    if bending {
+        let _ = sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y);
+    }
+}
+
+/// `A p = c_m M p + c_k K_w p`, the matrix of the linearized implicit Euler step.
+struct SystemOperator<'s, 't> {
+    pattern: &'s Pattern<'s>,
+    k_diag: &'s [Mat3A],
+    k_off: &'s [Mat3A],
+    q_diag: &'s [f32],
+    q_off: &'s [f32],
+    rot: &'s [Quat],
+    mass: &'s [f32],
+    bending: bool,
+    warping: bool,
+    c_m: f32,
+    c_k: f32,
+    tmp: core::cell::RefCell<&'t mut [Vec3A]>,
+}
+
+impl Operator for SystemOperator<'_, '_> {
+    fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]) {
+        let Ok(mut tmp) = self.tmp.try_borrow_mut() else {
+            return;
+        };
+        stiffness_apply(self.pattern, self.k_diag, self.k_off, self.q_diag, self.q_off, self.rot, self.bending, self.warping, x, &mut tmp, y);
+        for ((yi, &xi), &m) in y.iter_mut().zip(x).zip(self.mass) {
+            *yi = *yi * self.c_k + xi * (self.c_m * m);
+        }
+    }
+}

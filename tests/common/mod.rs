@@ -1,0 +1,105 @@
+//! Shared test fixtures: grid sheets and materials.
+#![allow(dead_code)]
+
+use weft::mesh;
+use weft::world::{Capacity, ClothDef, Material, Materials, Settings, World};
+
+/// An owned grid cloth (positions, uvs, triangles, per-triangle material).
+pub struct Sheet {
+    pub positions: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    pub triangles: Vec<[u32; 3]>,
+    pub materials: Vec<u32>,
+    pub nx: usize,
+    pub ny: usize,
+}
+
+impl Sheet {
+    /// `nx × ny` vertices over `width × height` metres in (u,v), lying flat at z = 0.
+    pub fn grid(nx: usize, ny: usize, width: f32, height: f32) -> Sheet {
+        let mut positions = vec![[0.0; 3]; nx * ny];
+        let mut uvs = vec![[0.0; 2]; nx * ny];
+        let mut triangles = vec![[0; 3]; 2 * (nx - 1) * (ny - 1)];
+        mesh::grid(nx, ny, width, height, &mut positions, &mut uvs, &mut triangles).unwrap();
+        let materials = vec![0; triangles.len()];
+        Sheet {
+            positions,
+            uvs,
+            triangles,
+            materials,
+            nx,
+            ny,
+        }
+    }
+
+    pub fn def(&self) -> ClothDef<'_> {
+        ClothDef {
+            positions: &self.positions,
+            uvs: &self.uvs,
+            triangles: &self.triangles,
+            materials: &self.materials,
+        }
+    }
+
+    pub fn index(&self, i: usize, j: usize) -> u32 {
+        (j * self.nx + i) as u32
+    }
+
+    pub fn capacity(&self) -> Capacity {
+        Capacity {
+            vertices: self.positions.len() as u32,
+            triangles: self.triangles.len() as u32,
+            edges: (3 * self.triangles.len() as u32).max(16),
+            colliders: 8,
+            pins: 256,
+        }
+    }
+
+    /// Maps every position through `f`.
+    pub fn transform(&mut self, f: impl Fn([f32; 3]) -> [f32; 3]) {
+        for p in &mut self.positions {
+            *p = f(*p);
+        }
+    }
+}
+
+/// Memory for a world, 16-byte aligned.
+pub fn memory(cap: &Capacity) -> Vec<u8> {
+    vec![0u8; cap.world_bytes()]
+}
+
+pub fn isotropic(stiffness: f64, poisson: f64, density: f64) -> Material {
+    Material {
+        stiffness: weft::membrane::isotropic(stiffness, poisson),
+        density,
+        bending: 1e-4,
+    }
+}
+
+/// A clearly anisotropic material (the stripes laminate of a 1:10 contrast, roughly).
+pub fn anisotropic() -> Material {
+    Material {
+        stiffness: [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
+        density: 0.15,
+        bending: 1e-4,
+    }
+}
+
+pub fn settings_quiet() -> Settings {
+    Settings {
+        effects: weft::world::effects::WARPING,
+        ..Settings::default()
+    }
+}
+
+pub fn world<'a>(mem: &'a mut [u8], sheet: &Sheet, mats: &'a [Material], settings: Settings) -> World<'a> {
+    World::new(mem, sheet.capacity(), &sheet.def(), Materials::Table(mats), settings).unwrap()
+}
+
+pub fn kinetic_energy(w: &World<'_>) -> f64 {
+    w.velocities()
+        .iter()
+        .zip(w.masses())
+        .map(|(v, &m)| 0.5 * m as f64 * v.length_squared() as f64)
+        .sum()
+}

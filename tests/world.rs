@@ -1,0 +1,450 @@
+//! The runtime's specification (issue: the coarse cloth step): patch tests, rigid motion,
+//! momentum, anisotropic stretch, settling, contact, determinism and every error path.
+
+mod common;
+
+use common::*;
+use glam::{Quat, Vec3A};
+use weft::collide::{Collider, Shape};
+use weft::mesh::MeshError;
+use weft::world::{effects, Capacity, ClothDef, InitError, Material, Materials, Settings, StepError, World};
+
+fn no_warp() -> Settings {
+    Settings {
+        effects: 0,
+        ..Settings::default()
+    }
+}
+
+/// Uniform strain of a homogenized sheet: interior nodes feel no force and the boundary
+/// forces integrate the C^H stress exactly (linear FEM patch test).
+#[test]
+fn patch_test_uniform_strain_reproduces_stress() {
+    let mat = [anisotropic()];
+    let (e1, e2, g) = (0.01f32, -0.004f32, 0.003f32);
+    let (w_, h_) = (1.0f32, 0.75f32);
+    let mut sheet = Sheet::grid(9, 7, w_, h_);
+    sheet.transform(|p| [p[0] * (1.0 + e1) + g * p[1], p[1] * (1.0 + e2), 0.0]);
+    for settings in [no_warp(), settings_quiet()] {
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mat, settings);
+        let mut f = vec![Vec3A::ZERO; w.vertex_count()];
+        assert!(w.elastic_forces(&mut f));
+        let c = mat[0].stiffness;
+        let e = [e1 as f64, e2 as f64, g as f64];
+        let s: [f64; 3] = core::array::from_fn(|i| c[i][0] * e[0] + c[i][1] * e[1] + c[i][2] * e[2]);
+        let scale = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        // warping: boundary rings are not symmetric, so R is only close to I there
+        let tol = if settings.effects & effects::WARPING != 0 { 2e-2 } else { 1e-4 };
+        for j in 1..sheet.ny - 1 {
+            for i in 1..sheet.nx - 1 {
+                let fi = f[sheet.index(i, j) as usize];
+                assert!((fi.length() as f64) < tol * scale * 0.2, "interior force {fi}");
+            }
+        }
+        // the external force holding the right edge is -f; it integrates (s11, s12)·height
+        let right: Vec3A = (0..sheet.ny).map(|j| -f[sheet.index(sheet.nx - 1, j) as usize]).sum();
+        let top: Vec3A = (0..sheet.nx).map(|i| -f[sheet.index(i, sheet.ny - 1) as usize]).sum();
+        let hh = h_ as f64 * (1.0 + e2 as f64);
+        let ww = w_ as f64;
+        assert!(((right.x as f64) - s[0] * h_ as f64).abs() < tol * scale * hh, "{right} vs {s:?}");
+        assert!(((right.y as f64) - s[2] * h_ as f64).abs() < tol * scale * hh, "{right} vs {s:?}");
+        assert!(((top.y as f64) - s[1] * ww).abs() < tol * scale * ww, "{top} vs {s:?}");
+        assert!(((top.x as f64) - s[2] * ww).abs() < tol * scale * ww, "{top} vs {s:?}");
+    }
+}
+
+/// Rigid rotation (including turning the sheet upside down) and translation: zero force.
+#[test]
+fn rigid_motion_gives_zero_elastic_force() {
+    let mat = [anisotropic()];
+    let rotations = [
+        Quat::IDENTITY,
+        Quat::from_axis_angle(glam::Vec3::new(1.0, 2.0, 3.0).normalize(), 1.1),
+        Quat::from_rotation_x(core::f32::consts::PI),
+        Quat::from_rotation_y(core::f32::consts::FRAC_PI_2),
+        Quat::from_axis_angle(glam::Vec3::new(-0.3, 0.2, 1.0).normalize(), 2.9),
+    ];
+    // force scale: a 1% stretch of this sheet
+    let mut stretched = Sheet::grid(11, 11, 1.0, 1.0);
+    stretched.transform(|p| [p[0] * 1.01, p[1], p[2]]);
+    let mut mem = memory(&stretched.capacity());
+    let mut w = world(&mut mem, &stretched, &mat, settings_quiet());
+    let mut f = vec![Vec3A::ZERO; w.vertex_count()];
+    w.elastic_forces(&mut f);
+    let scale = f.iter().map(|v| v.length()).fold(0.0, f32::max);
+    assert!(scale > 0.0);
+    for q in rotations {
+        let mut sheet = Sheet::grid(11, 11, 1.0, 1.0);
+        let t = Vec3A::new(3.0, -2.0, 7.5);
+        sheet.transform(|p| (q * glam::Vec3::from(p) + glam::Vec3::from(t)).into());
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mat, settings_quiet());
+        w.elastic_forces(&mut f);
+        let worst = f.iter().map(|v| v.length()).fold(0.0, f32::max);
+        assert!(worst < 2e-4 * scale, "rotation {q}: |f| = {worst} vs 1% stretch {scale}");
+    }
+}
+
+/// No external force, no damping: total linear momentum stays put while the cloth tumbles and
+/// vibrates.
+#[test]
+fn free_cloth_conserves_momentum() {
+    let mat = [anisotropic()];
+    let mut sheet = Sheet::grid(9, 9, 1.0, 1.0);
+    // a deformed initial state
+    sheet.transform(|p| [p[0] * 1.05, p[1] * 0.97 + 0.02 * p[0], 0.1 * (p[0] * 3.0).sin()]);
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        effects: effects::WARPING | effects::BENDING,
+        tolerance: 1e-6,
+        max_iterations: 500,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mat, settings);
+    // spin about z plus drift
+    let v: Vec<[f32; 3]> = sheet
+        .positions
+        .iter()
+        .map(|p| [0.3 - 0.8 * (p[1] - 0.5), 0.1 + 0.8 * (p[0] - 0.5), 0.2])
+        .collect();
+    w.set_velocities(&v).unwrap();
+    let momentum = |w: &World<'_>| -> glam::DVec3 {
+        w.velocities()
+            .iter()
+            .zip(w.masses())
+            .map(|(v, &m)| glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64) * m as f64)
+            .sum()
+    };
+    let scale: f64 = w
+        .velocities()
+        .iter()
+        .zip(w.masses())
+        .map(|(v, &m)| v.length() as f64 * m as f64)
+        .sum();
+    let p0 = momentum(&w);
+    for _ in 0..200 {
+        let s = w.step().unwrap();
+        assert!(s.converged);
+    }
+    let p1 = momentum(&w);
+    assert!((p1 - p0).length() < 1e-3 * scale, "momentum drift {} of {scale}", (p1 - p0).length());
+}
+
+/// Hang a strip from its top edge under gravity: its elongation is ρ g L² / (2 C⁻¹₁₁-direction)
+/// of the material, along u and along v, and the two differ as the stiffness says.
+#[test]
+fn anisotropic_static_stretch_matches_compliance() {
+    let mat = anisotropic();
+    let s = weft::membrane::inverse3(&mat.stiffness).unwrap();
+    let (length, width) = (1.0f32, 0.1f32);
+    let g = 50.0f32;
+    let mut measured = [0.0f64; 2];
+    for axis in 0..2 {
+        // strip along u (axis 0) or along v (axis 1); gravity pulls along the strip
+        let (nx, ny, wu, hv) = if axis == 0 { (41, 5, length, width) } else { (5, 41, width, length) };
+        let sheet = Sheet::grid(nx, ny, wu, hv);
+        let mats = [mat];
+        let mut mem = memory(&sheet.capacity());
+        let gravity = if axis == 0 { [-g, 0.0, 0.0] } else { [0.0, -g, 0.0] };
+        let settings = Settings {
+            effects: effects::GRAVITY | effects::PINS | effects::DAMPING | effects::WARPING,
+            gravity,
+            damping_mass: 2.0,
+            damping_stiffness: 0.0,
+            tolerance: 1e-6,
+            max_iterations: 1000,
+            ..Settings::default()
+        };
+        let mut w = world(&mut mem, &sheet, &mats, settings);
+        // pin the far end (u = L or v = L): gravity pulls the strip away from it
+        if axis == 0 {
+            for j in 0..ny {
+                let i = sheet.index(nx - 1, j);
+                w.set_pin(i, sheet.positions[i as usize]).unwrap();
+            }
+        } else {
+            for i in 0..nx {
+                let k = sheet.index(i, ny - 1);
+                w.set_pin(k, sheet.positions[k as usize]).unwrap();
+            }
+        }
+        for _ in 0..1500 {
+            w.step().unwrap();
+        }
+        // free-end displacement along the strip, averaged over its nodes
+        let free: Vec<u32> = if axis == 0 {
+            (0..ny).map(|j| sheet.index(0, j)).collect()
+        } else {
+            (0..nx).map(|i| sheet.index(i, 0)).collect()
+        };
+        let d: f64 = free
+            .iter()
+            .map(|&k| (sheet.positions[k as usize][axis] - w.positions()[k as usize][axis]) as f64)
+            .sum::<f64>()
+            / free.len() as f64;
+        let compliance = s[axis][axis];
+        let expected = mat.density * g as f64 * (length as f64).powi(2) / 2.0 * compliance;
+        measured[axis] = d;
+        let err = (d - expected).abs() / expected;
+        assert!(err < 0.02, "axis {axis}: elongation {d} vs 1/C^H closed form {expected} ({:.2}%)", err * 100.0);
+    }
+    let ratio = measured[1] / measured[0];
+    let expected_ratio = s[1][1] / s[0][0];
+    assert!(ratio > 1.5, "the soft axis must stretch more: ratio {ratio}");
+    assert!((ratio / expected_ratio - 1.0).abs() < 0.03);
+}
+
+fn hanging(nx: usize) -> (Sheet, Settings) {
+    let mut sheet = Sheet::grid(nx, nx, 1.0, 1.0);
+    // hang in the x–z plane: v becomes height
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    (sheet, Settings::default())
+}
+
+#[test]
+fn cloth_pinned_at_two_corners_settles() {
+    let (sheet, settings) = hanging(15);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings { damping_mass: 0.5, ..settings });
+    let (a, b) = (sheet.index(0, 14), sheet.index(14, 14));
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    let mut peak = 0.0f64;
+    let mut last = 0.0;
+    for step in 0..900 {
+        let s = w.step().unwrap();
+        assert!(s.converged, "step {step} did not converge: {s:?}");
+        last = kinetic_energy(&w);
+        peak = peak.max(last);
+    }
+    assert!(peak > 0.0);
+    assert!(last < 1e-3 * peak, "kinetic energy {last} vs peak {peak}");
+    // pinned corners stay exactly where they are
+    assert_eq!(<[f32; 3]>::from(w.positions()[a as usize]), sheet.positions[a as usize]);
+}
+
+fn drop_on(shape: Shape) {
+    let mut sheet = Sheet::grid(17, 17, 1.0, 1.0);
+    sheet.transform(|p| [p[0] - 0.5, p[1] - 0.5, 0.6]);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    let thickness = 0.01;
+    w.add_collider(Collider::new(shape, 0.3, thickness)).unwrap();
+    for step in 0..240 {
+        let s = w.step().unwrap();
+        for (i, x) in w.positions().iter().enumerate() {
+            let d = shape.proximity(*x).distance;
+            assert!(d > -1e-5, "step {step}: vertex {i} penetrates {d} (thickness {thickness})");
+        }
+        if step > 60 {
+            assert!(s.contacts > 0);
+        }
+    }
+}
+
+#[test]
+fn dropped_on_sphere_never_penetrates() {
+    drop_on(Shape::Sphere {
+        center: Vec3A::new(0.0, 0.0, 0.0),
+        radius: 0.3,
+    });
+}
+
+#[test]
+fn dropped_on_plane_never_penetrates() {
+    drop_on(Shape::Plane {
+        normal: Vec3A::Z,
+        offset: 0.0,
+    });
+}
+
+#[test]
+fn replay_is_bit_identical() {
+    let run = || {
+        let (sheet, settings) = hanging(12);
+        let mats = [anisotropic()];
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings { effects: effects::ALL & !effects::SLEEP, drag: 0.5, wind: [1.0, 2.0, 0.0], ..settings });
+        w.set_pin(sheet.index(0, 11), sheet.positions[sheet.index(0, 11) as usize]).unwrap();
+        w.add_collider(Collider::new(
+            Shape::Sphere {
+                center: Vec3A::new(0.5, 0.2, 0.3),
+                radius: 0.2,
+            },
+            0.4,
+            0.005,
+        ))
+        .unwrap();
+        for _ in 0..500 {
+            w.step().unwrap();
+        }
+        w.positions().iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect::<Vec<u32>>()
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn init_errors_are_specific_and_memory_is_reusable() {
+    let mats = [anisotropic()];
+    let sheet = Sheet::grid(4, 4, 1.0, 1.0);
+    let cap = sheet.capacity();
+    let mut mem = memory(&cap);
+    let try_init = |mem: &mut [u8], def: &ClothDef<'_>, cap: Capacity, s: Settings| {
+        World::new(mem, cap, def, Materials::Table(&mats), s).map(|_| ())
+    };
+    let ok = Settings::default();
+    // capacities
+    let small = Capacity { vertices: 15, ..cap };
+    assert_eq!(
+        try_init(&mut mem, &sheet.def(), small, ok),
+        Err(InitError::VertexCapacity { needed: 16, capacity: 15 })
+    );
+    let small = Capacity { triangles: 17, ..cap };
+    assert_eq!(
+        try_init(&mut mem, &sheet.def(), small, ok),
+        Err(InitError::TriangleCapacity { needed: 18, capacity: 17 })
+    );
+    let small = Capacity { edges: 20, ..cap };
+    assert!(matches!(try_init(&mut mem, &sheet.def(), small, ok), Err(InitError::EdgeCapacity { .. })));
+    assert_eq!(try_init(&mut mem[..100], &sheet.def(), cap, ok), Err(InitError::MemoryTooSmall));
+    // degenerate triangles
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.positions[5] = bad.positions[0];
+    assert!(matches!(
+        try_init(&mut mem, &bad.def(), cap, ok),
+        Err(InitError::Mesh(MeshError::Degenerate3d { .. }))
+    ));
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.uvs[5] = bad.uvs[0];
+    assert!(matches!(
+        try_init(&mut mem, &bad.def(), cap, ok),
+        Err(InitError::Mesh(MeshError::DegenerateUv { .. }))
+    ));
+    // an edge shared by three triangles
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.positions.push([0.2, 0.1, 0.5]);
+    bad.uvs.push([0.9, 0.9]);
+    bad.triangles.push([0, 1, 16]);
+    bad.materials.push(0);
+    let cap2 = Capacity { vertices: 17, triangles: 19, ..cap };
+    let mut mem2 = memory(&cap2);
+    assert!(matches!(
+        try_init(&mut mem2, &bad.def(), cap2, ok),
+        Err(InitError::Mesh(MeshError::NonManifoldEdge { a: 0, b: 1 }))
+    ));
+    // index out of range, material out of range, NaN
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.triangles[3] = [0, 1, 99];
+    assert_eq!(
+        try_init(&mut mem, &bad.def(), cap, ok),
+        Err(InitError::Mesh(MeshError::IndexOutOfRange { triangle: 3 }))
+    );
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.materials[7] = 3;
+    assert_eq!(
+        try_init(&mut mem, &bad.def(), cap, ok),
+        Err(InitError::MaterialOutOfRange { triangle: 7, material: 3 })
+    );
+    let mut bad = Sheet::grid(4, 4, 1.0, 1.0);
+    bad.positions[2][1] = f32::NAN;
+    assert_eq!(
+        try_init(&mut mem, &bad.def(), cap, ok),
+        Err(InitError::Mesh(MeshError::NonFinite { vertex: 2 }))
+    );
+    bad.positions[2][1] = f32::INFINITY;
+    assert!(try_init(&mut mem, &bad.def(), cap, ok).is_err());
+    // settings
+    for time_step in [0.0, -1.0, f32::NAN] {
+        assert_eq!(
+            try_init(&mut mem, &sheet.def(), cap, Settings { time_step, ..ok }),
+            Err(InitError::InvalidSetting { field: "time_step" })
+        );
+    }
+    let bad_mat = [Material { density: -1.0, ..anisotropic() }];
+    assert_eq!(
+        World::new(&mut mem, cap, &sheet.def(), Materials::Table(&bad_mat), ok).map(|_| ()),
+        Err(InitError::InvalidMaterial { material: 0 })
+    );
+    // after all that, the same memory builds a good world
+    let mut w = World::new(&mut mem, cap, &sheet.def(), Materials::Table(&mats), ok).unwrap();
+    assert!(w.step().is_ok());
+}
+
+#[test]
+fn nan_pin_target_is_refused_and_world_stays_usable() {
+    let (sheet, settings) = hanging(6);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    w.set_pin(0, [0.0, 0.0, 0.0]).unwrap();
+    for _ in 0..10 {
+        w.step().unwrap();
+    }
+    let before: Vec<Vec3A> = w.positions().to_vec();
+    w.set_pin(0, [f32::NAN, 0.0, 0.0]).unwrap();
+    assert_eq!(w.step(), Err(StepError::NonFinitePin { vertex: 0 }));
+    assert_eq!(w.positions(), &before[..]);
+    w.set_pin(0, [0.0, 0.0, 0.1]).unwrap();
+    assert!(w.step().is_ok());
+    assert!(w.positions().iter().all(|p| p.is_finite()));
+    assert_eq!(w.step_dt(0.0), Err(StepError::InvalidTimeStep));
+    assert_eq!(w.step_dt(f32::NAN), Err(StepError::InvalidTimeStep));
+}
+
+#[test]
+fn effects_are_honoured() {
+    let (sheet, settings) = hanging(8);
+    let mats = [anisotropic()];
+    let run = |effects: u32| {
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings { effects, ..settings });
+        w.set_pin(sheet.index(0, 7), sheet.positions[sheet.index(0, 7) as usize]).unwrap();
+        for _ in 0..30 {
+            w.step().unwrap();
+        }
+        w.positions().to_vec()
+    };
+    let base = effects::GRAVITY | effects::PINS | effects::WARPING;
+    let still = run(effects::PINS | effects::WARPING);
+    assert!(still.iter().zip(&sheet.positions).all(|(a, b)| (*a - Vec3A::from(*b)).length() < 1e-6), "no gravity: nothing moves");
+    let falls = run(base);
+    let bends = run(base | effects::BENDING);
+    let damped = run(base | effects::DAMPING);
+    let diff = |a: &[Vec3A], b: &[Vec3A]| a.iter().zip(b).map(|(x, y)| (*x - *y).length()).fold(0.0, f32::max);
+    assert!(diff(&falls, &still) > 0.1);
+    assert!(diff(&falls, &bends) > 1e-4);
+    assert!(diff(&falls, &damped) > 1e-4);
+}
+
+#[test]
+fn cloth_at_rest_sleeps_and_wakes() {
+    let (sheet, settings) = hanging(8);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings { effects: settings.effects | effects::SLEEP, damping_mass: 2.0, ..settings });
+    let (a, b) = (sheet.index(0, 7), sheet.index(7, 7));
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    let mut slept_at = None;
+    for step in 0..3000 {
+        let s = w.step().unwrap();
+        if s.asleep {
+            slept_at = Some(step);
+            break;
+        }
+    }
+    assert!(slept_at.is_some(), "a hanging cloth comes to rest and sleeps");
+    let frozen = w.positions().to_vec();
+    assert!(w.step().unwrap().asleep);
+    assert_eq!(w.positions(), &frozen[..]);
+    // moving a pin wakes it
+    let mut t = sheet.positions[b as usize];
+    t[0] += 0.2;
+    w.set_pin(b, t).unwrap();
+    assert!(!w.is_asleep());
+    assert!(!w.step().unwrap().asleep);
+    assert_ne!(w.positions(), &frozen[..]);
+}
