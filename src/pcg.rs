@@ -1,1 +1,1082 @@
-//! (to be written: see docs/ARCHITECTURE.md)
+//! Modified preconditioned conjugate gradient with a per-vertex constraint filter
+//! (Baraff & Witkin 1998, "Large steps in cloth simulation", §5.3).
+//!
+//! Solves `A x = b` for a symmetric positive definite `A` given only as an [`Operator`], where
+//! some vertices are constrained along some directions. Vertex `i`'s constraint is a filter
+//! `S_i`: a symmetric 3×3 projection onto the directions in which it is *free* (`I` for a free
+//! vertex, `I − n nᵀ` for a vertex held along `n`, e.g. a contact, `n nᵀ` for one free only
+//! along `n`, `0` for a pinned vertex). The constrained part of the answer is prescribed by the
+//! incoming `x` (call it `z`): on return
+//!
+//! ```text
+//!     S (A x − b) = 0          (the equations hold in every free direction)
+//!     (I − S) x = (I − S) z    (the constrained components keep their incoming values)
+//! ```
+//!
+//! which is §5.3's point: pins, moving targets and contacts become part of one solve instead
+//! of being handled by reduced coordinates or penalty forces. The iteration is PCG on the
+//! subspace `range(S)`: the initial residual and every search direction are filtered, so `x`
+//! only moves where `S` lets it, and the block-Jacobi preconditioner `P` enters as `S P S`,
+//! which is SPD on that subspace whenever `P` is SPD (so CG's theory applies unchanged).
+//!
+//! Convergence test (exactly as implemented): with `rᵀ P r` the preconditioned residual norm²
+//! of the filtered residual `r = S (b − A x)` (updated recursively, as in CG),
+//!
+//! ```text
+//!     sqrt(rᵀ P r / δ₀) ≤ tolerance,     δ₀ = (S b)ᵀ P (S b)
+//! ```
+//!
+//! as in §5.3 (`δ_new < ε² δ₀`). If `δ₀ = 0` (the filtered right-hand side vanishes) the
+//! reference becomes the initial residual `r₀ᵀ P r₀` instead, so a problem driven only by
+//! prescribed components still converges to a relative reduction rather than never; if the
+//! initial residual is also zero the warm start is returned after 0 iterations.
+//!
+//! Numerics: vectors are `f32` (`Vec3A`), dot products are accumulated in `f64` (products of
+//! two `f32` are exact in `f64`) in a fixed serial order, so a solve is bit-reproducible given
+//! a deterministic operator.
+#![deny(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unreachable
+)]
+
+use crate::sparse::BlockMatrix;
+use glam::{Mat3A, Vec3A};
+
+/// A symmetric positive definite linear operator on `n` vertices.
+pub trait Operator {
+    /// `y = A x`, with `x.len() == y.len() == n`; `y` is fully overwritten. An operator that
+    /// cannot compute the product (e.g. wrong lengths) should fill `y` with NaN, which
+    /// [`solve`] reports as [`PcgError::Breakdown`].
+    fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]);
+}
+
+/// The plain sparse matrix as an operator. On a length or pattern error of
+/// [`crate::sparse::mul`], `y` is filled with NaN (see [`Operator::apply`]).
+impl Operator for BlockMatrix<'_> {
+    fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]) {
+        if self.mul(x, y).is_err() {
+            y.fill(Vec3A::NAN);
+        }
+    }
+}
+
+/// Solver settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Relative residual in the preconditioned norm (see the module docs). `≤ 0` or NaN means
+    /// "iterate until the residual is exactly zero or `max_iterations`".
+    pub tolerance: f32,
+    /// Iteration cap; reaching it is not an error ([`Stats::converged`] is `false`).
+    pub max_iterations: u32,
+}
+
+impl Default for Settings {
+    /// `tolerance = 1e-4`, `max_iterations = 200`: a generic starting point, not tuned.
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-4,
+            max_iterations: 200,
+        }
+    }
+}
+
+/// What a solve did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stats {
+    /// CG iterations (operator applications after the initial residual).
+    pub iterations: u32,
+    /// Final relative residual `sqrt(rᵀ P r / δ₀)` of the recursively updated residual (which
+    /// drifts from the true `S (b − A x)` by rounding only).
+    pub residual: f32,
+    /// `residual ≤ tolerance` was reached within `max_iterations`.
+    pub converged: bool,
+}
+
+/// Why a solve failed. `LengthMismatch` and `NonFinite` are detected before anything is
+/// written; after `Breakdown`, `x` may hold the last iterate or a partial update and the caller
+/// should fall back to its own last good state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PcgError {
+    /// `x`, `precond` or `filter` do not have `b.len()` entries, or a work slice is shorter.
+    LengthMismatch,
+    /// `b`, `x` (the warm start / prescribed values), `precond` or `filter` is not finite.
+    NonFinite,
+    /// `cᵀ A c ≤ 0` (the operator is not positive definite on the free subspace), `P` is not
+    /// positive, or a non-finite value appeared during the iteration.
+    Breakdown,
+}
+
+/// Scratch vectors, each at least `n` long (only the first `n` entries are used; contents on
+/// entry do not matter). Names follow §5.3: residual `r`, search direction `c`, `q = S A c`,
+/// preconditioned residual `s = P r`.
+pub struct Work<'a> {
+    pub r: &'a mut [Vec3A],
+    pub c: &'a mut [Vec3A],
+    pub q: &'a mut [Vec3A],
+    pub s: &'a mut [Vec3A],
+}
+
+/// The constraint filter as a type, so the unconstrained solve is monomorphized with an
+/// identity that compiles away ("no constraints must cost nothing extra").
+trait Filter {
+    /// `S_i v`.
+    fn at(&self, i: usize, v: Vec3A) -> Vec3A;
+}
+
+struct Free;
+
+impl Filter for Free {
+    #[inline(always)]
+    fn at(&self, _i: usize, v: Vec3A) -> Vec3A {
+        v
+    }
+}
+
+/// Per-vertex filter blocks, already checked to hold exactly `n` entries.
+struct Blocks<'a>(&'a [Mat3A]);
+
+impl Filter for Blocks<'_> {
+    #[inline(always)]
+    fn at(&self, i: usize, v: Vec3A) -> Vec3A {
+        // `i < n` always (length checked in `solve`); the fallback is never taken.
+        self.0.get(i).map_or(v, |s| *s * v)
+    }
+}
+
+/// `a · b` in `f64`; the three products are exact, only the two additions round.
+#[inline(always)]
+fn dot64(a: Vec3A, b: Vec3A) -> f64 {
+    f64::from(a.x) * f64::from(b.x)
+        + f64::from(a.y) * f64::from(b.y)
+        + f64::from(a.z) * f64::from(b.z)
+}
+
+#[inline]
+fn relative(delta: f64, reference: f64) -> f32 {
+    if reference > 0.0 {
+        libm::sqrt(delta / reference) as f32
+    } else {
+        0.0
+    }
+}
+
+/// Solves `S (A x − b) = 0`, `(I − S) x = (I − S) z` by modified PCG (Baraff & Witkin §5.3);
+/// see the module docs for the exact problem and convergence test.
+///
+/// * `a`: the SPD operator, `y = A x`.
+/// * `precond`: `P`, the inverse of `A`'s 3×3 block diagonal (block Jacobi), one SPD block per
+///   vertex; build each with [`invert_block`].
+/// * `filter`: `S_i` per vertex, or `None` for no constraints (the unconstrained path is a
+///   separate monomorphization with no filter work at all). Each `S_i` must be a symmetric
+///   projection (`S_i = S_iᵀ = S_i²`); this is the caller's contract and is not checked, only
+///   finiteness is. `A` need only be positive definite on `range(S)`.
+/// * `b`: right-hand side; its length is `n`.
+/// * `x`: in: warm start for the free components and the prescribed values `z` for the
+///   constrained ones; out: the solution. The constrained components are moved only by
+///   `α (I − S_i) c_i` with `c_i = S_i (…)`, i.e. not at all for a pinned vertex (`S_i = 0`) or
+///   an axis-aligned constraint, and by `f32` rounding of the projection (≈ 1e-7 relative per
+///   iteration) for an oblique one.
+/// * `work`: scratch, see [`Work`].
+///
+/// Returns [`Stats`]; hitting `max_iterations` is `converged = false`, not an error.
+pub fn solve(
+    a: &impl Operator,
+    precond: &[Mat3A],
+    filter: Option<&[Mat3A]>,
+    b: &[Vec3A],
+    x: &mut [Vec3A],
+    settings: &Settings,
+    work: Work<'_>,
+) -> Result<Stats, PcgError> {
+    match filter {
+        None => run(a, precond, &Free, b, x, settings, work),
+        Some(f) => {
+            if f.len() != b.len() {
+                return Err(PcgError::LengthMismatch);
+            }
+            if !f.iter().all(Mat3A::is_finite) {
+                return Err(PcgError::NonFinite);
+            }
+            run(a, precond, &Blocks(f), b, x, settings, work)
+        }
+    }
+}
+
+fn run<F: Filter>(
+    a: &impl Operator,
+    precond: &[Mat3A],
+    f: &F,
+    b: &[Vec3A],
+    x: &mut [Vec3A],
+    settings: &Settings,
+    work: Work<'_>,
+) -> Result<Stats, PcgError> {
+    let n = b.len();
+    if x.len() != n || precond.len() != n {
+        return Err(PcgError::LengthMismatch);
+    }
+    let (Some(r), Some(c), Some(q), Some(s)) = (
+        work.r.get_mut(..n),
+        work.c.get_mut(..n),
+        work.q.get_mut(..n),
+        work.s.get_mut(..n),
+    ) else {
+        return Err(PcgError::LengthMismatch);
+    };
+    if !b.iter().all(|v| v.is_finite())
+        || !x.iter().all(|v| v.is_finite())
+        || !precond.iter().all(Mat3A::is_finite)
+    {
+        return Err(PcgError::NonFinite);
+    }
+    // Compare squared norms in f64; a NaN or non-positive tolerance becomes 0.
+    let tol = f64::from(settings.tolerance);
+    let tol2 = if tol > 0.0 { tol * tol } else { 0.0 };
+
+    // δ₀ = (S b)ᵀ P (S b): §5.3's scale for "small", filtered so that forces in constrained
+    // directions (which the constraints absorb) do not loosen the test.
+    let mut delta0 = 0.0f64;
+    for (i, (&bi, p)) in b.iter().zip(precond.iter()).enumerate() {
+        let sb = f.at(i, bi);
+        delta0 += dot64(sb, *p * sb);
+    }
+
+    // r = S (b − A x): the warm start already carries the prescribed components, so this is
+    // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`.
+    a.apply(x, r);
+    for (i, (ri, &bi)) in r.iter_mut().zip(b.iter()).enumerate() {
+        *ri = f.at(i, bi - *ri);
+    }
+    // c = S P r, δ = rᵀ c (= rᵀ P r since S r = r and S is a symmetric projection).
+    let mut delta = 0.0f64;
+    for (i, ((ci, &ri), p)) in c.iter_mut().zip(r.iter()).zip(precond.iter()).enumerate() {
+        *ci = f.at(i, *p * ri);
+        delta += dot64(ri, *ci);
+    }
+    if !delta0.is_finite() || !delta.is_finite() || delta < 0.0 {
+        return Err(PcgError::Breakdown);
+    }
+    let reference = if delta0 > 0.0 { delta0 } else { delta };
+    let threshold = tol2 * reference;
+
+    let mut stats = Stats {
+        iterations: 0,
+        residual: relative(delta, reference),
+        converged: delta <= threshold,
+    };
+    while !stats.converged && stats.iterations < settings.max_iterations {
+        // q = S A c, and cᵀ q = cᵀ A c (c = S c): the curvature along c.
+        a.apply(c, q);
+        let mut cq = 0.0f64;
+        for (i, (qi, &ci)) in q.iter_mut().zip(c.iter()).enumerate() {
+            *qi = f.at(i, *qi);
+            cq += dot64(ci, *qi);
+        }
+        // Non-positive curvature: A is not SPD on the free subspace; CG cannot continue.
+        // Checked before x moves, so x is still the last good iterate here.
+        if !(cq > 0.0 && cq.is_finite()) {
+            return Err(PcgError::Breakdown);
+        }
+        let alpha = (delta / cq) as f32;
+        if !alpha.is_finite() {
+            return Err(PcgError::Breakdown);
+        }
+
+        // One fused pass: x += α c, r −= α q, s = P r, δ_new = rᵀ s.
+        let mut delta_new = 0.0f64;
+        for ((((xi, ri), si), (&ci, &qi)), p) in x
+            .iter_mut()
+            .zip(r.iter_mut())
+            .zip(s.iter_mut())
+            .zip(c.iter().zip(q.iter()))
+            .zip(precond.iter())
+        {
+            *xi += alpha * ci;
+            *ri -= alpha * qi;
+            *si = *p * *ri;
+            delta_new += dot64(*ri, *si);
+        }
+        stats.iterations += 1;
+        if !delta_new.is_finite() || delta_new < 0.0 {
+            return Err(PcgError::Breakdown);
+        }
+        stats.residual = relative(delta_new, reference);
+        stats.converged = delta_new <= threshold;
+        if stats.converged {
+            break;
+        }
+
+        // c = S (s + β c). δ > threshold ≥ 0 here, so β is finite unless δ_new overflowed,
+        // which the next cᵀ q check catches.
+        let beta = (delta_new / delta) as f32;
+        for (i, (ci, &si)) in c.iter_mut().zip(s.iter()).enumerate() {
+            *ci = f.at(i, si + beta * *ci);
+        }
+        delta = delta_new;
+    }
+    Ok(stats)
+}
+
+/// Smallest accepted `det(M) / (M₀₀ M₁₁ M₂₂)` for a full block inverse. This is the
+/// determinant of the Jacobi-scaled block (eigenvalues summing to 3), so it bounds that block's
+/// condition number by about `6.75 / ratio`; at `1e-5` (≤ ~7e5) the `f32`-rounded inverse is
+/// still SPD. Below it the block is numerically singular in `f32` and point Jacobi is safer.
+const MIN_SCALED_DET: f64 = 1e-5;
+
+/// Inverse of an SPD 3×3 diagonal block, for the block-Jacobi preconditioner.
+///
+/// The block is symmetrized (`(M + Mᵀ)/2`, since PCG needs a symmetric preconditioner) and
+/// inverted by cofactors in `f64`; the result is exactly symmetric. If the block is not finite,
+/// not positive definite by Sylvester's criterion, or too ill-conditioned (see
+/// `MIN_SCALED_DET`), or the inverse overflows `f32`, it falls back to the inverse of its
+/// diagonal (point Jacobi), using `1` for any diagonal entry that is not positive and finite
+/// or whose reciprocal overflows. The result is always finite and SPD, never NaN.
+pub fn invert_block(m: Mat3A) -> Mat3A {
+    // Column-major: column 0 is (m00, m10, m20).
+    let [m00, m10, m20, m01, m11, m21, m02, m12, m22] = m.to_cols_array().map(f64::from);
+    let (d0, d1, d2) = (m00, m11, m22);
+    let s01 = 0.5 * (m01 + m10);
+    let s02 = 0.5 * (m02 + m20);
+    let s12 = 0.5 * (m12 + m21);
+    let all_finite = m.is_finite();
+
+    if all_finite && d0 > 0.0 && d1 > 0.0 && d2 > 0.0 {
+        let c00 = d1 * d2 - s12 * s12;
+        let c01 = s02 * s12 - s01 * d2;
+        let c02 = s01 * s12 - s02 * d1;
+        let c11 = d0 * d2 - s02 * s02;
+        let c12 = s01 * s02 - d0 * s12;
+        let c22 = d0 * d1 - s01 * s01; // also the leading 2×2 minor
+        let det = d0 * c00 + s01 * c01 + s02 * c02;
+        if c22 > 0.0 && det > 0.0 && det >= MIN_SCALED_DET * (d0 * d1 * d2) {
+            let k = 1.0 / det;
+            let e = [c00, c01, c02, c11, c12, c22].map(|v| (v * k) as f32);
+            if e.iter().all(|v| v.is_finite()) {
+                let [i00, i01, i02, i11, i12, i22] = e;
+                return Mat3A::from_cols(
+                    Vec3A::new(i00, i01, i02),
+                    Vec3A::new(i01, i11, i12),
+                    Vec3A::new(i02, i12, i22),
+                );
+            }
+        }
+    }
+
+    let inv = |d: f64| {
+        let v = (1.0 / d) as f32;
+        if d > 0.0 && v.is_finite() && v > 0.0 {
+            v
+        } else {
+            1.0
+        }
+    };
+    Mat3A::from_diagonal(glam::Vec3::new(inv(d0), inv(d1), inv(d2)))
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+mod tests {
+    use super::*;
+    use crate::sparse::add_block;
+    use crate::sparse::tests::{dense, random_pairs, Lcg, OwnedPattern};
+
+    /// An owned SPD block system `A = M + Σ_e` (edge terms `‖x_a − T_e x_b‖²_{K_e}`), which
+    /// gives non-symmetric off-diagonal blocks `−K_e T_e` and full diagonal blocks.
+    struct System {
+        op: OwnedPattern,
+        diag: Vec<Mat3A>,
+        off: Vec<Mat3A>,
+    }
+
+    impl System {
+        fn random(rng: &mut Lcg, n: usize, stiffness: f32) -> Self {
+            let pairs = random_pairs(rng, n, 2 * n);
+            let op = OwnedPattern::build(n, &pairs);
+            let mut diag: Vec<Mat3A> = (0..n)
+                .map(|_| Mat3A::from_diagonal(glam::Vec3::splat(1.5 + 0.5 * rng.uniform())))
+                .collect();
+            let mut off = vec![Mat3A::ZERO; op.cols.len()];
+            let p = op.pattern();
+            for &[a, b] in &pairs {
+                if a == b {
+                    continue;
+                }
+                let (a, b) = (a as usize, b as usize);
+                let l = rng.mat();
+                let k = stiffness * (l * l.transpose() + 0.1 * Mat3A::IDENTITY);
+                let t = Mat3A::IDENTITY + 0.3 * rng.mat();
+                add_block(&p, &mut diag, &mut off, a, a, k).unwrap();
+                add_block(&p, &mut diag, &mut off, b, b, t.transpose() * k * t).unwrap();
+                add_block(&p, &mut diag, &mut off, a, b, -(k * t)).unwrap();
+            }
+            Self { op, diag, off }
+        }
+        fn matrix(&self) -> BlockMatrix<'_> {
+            BlockMatrix {
+                diag: &self.diag,
+                pattern: self.op.pattern(),
+                off: &self.off,
+            }
+        }
+        fn precond(&self) -> Vec<Mat3A> {
+            self.diag.iter().map(|&d| invert_block(d)).collect()
+        }
+        fn dense(&self) -> Vec<f64> {
+            dense(&self.diag, &self.op.pattern(), &self.off)
+        }
+    }
+
+    struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
+    impl Scratch {
+        fn new(n: usize) -> Self {
+            let v = vec![Vec3A::splat(f32::NAN); n]; // contents on entry must not matter
+            Self(v.clone(), v.clone(), v.clone(), v)
+        }
+        fn work(&mut self) -> Work<'_> {
+            Work {
+                r: &mut self.0,
+                c: &mut self.1,
+                q: &mut self.2,
+                s: &mut self.3,
+            }
+        }
+    }
+
+    fn flat(v: &[Vec3A]) -> Vec<f64> {
+        v.iter().flat_map(|v| v.to_array()).map(f64::from).collect()
+    }
+
+    /// Gaussian elimination with partial pivoting, f64.
+    fn dense_solve(a: &[f64], b: &[f64]) -> Vec<f64> {
+        let m = b.len();
+        let mut a = a.to_vec();
+        let mut b = b.to_vec();
+        for k in 0..m {
+            let piv = (k..m)
+                .max_by(|&i, &j| a[i * m + k].abs().total_cmp(&a[j * m + k].abs()))
+                .unwrap();
+            for c in 0..m {
+                a.swap(k * m + c, piv * m + c);
+            }
+            b.swap(k, piv);
+            for i in k + 1..m {
+                let f = a[i * m + k] / a[k * m + k];
+                for c in k..m {
+                    a[i * m + c] -= f * a[k * m + c];
+                }
+                b[i] -= f * b[k];
+            }
+        }
+        let mut x = vec![0.0; m];
+        for k in (0..m).rev() {
+            let s: f64 = (k + 1..m).map(|c| a[k * m + c] * x[c]).sum();
+            x[k] = (b[k] - s) / a[k * m + k];
+        }
+        x
+    }
+
+    fn block_f64(s: &Mat3A) -> [[f64; 3]; 3] {
+        core::array::from_fn(|r| core::array::from_fn(|c| f64::from(s.col(c)[r])))
+    }
+
+    /// Dense reference of the filtered problem: `(S A S + (I − S)) x = S (b − A (I − S) z)
+    /// + (I − S) z`, which splits into the two conditions on `range(S)` and its complement.
+    fn dense_filtered(a: &[f64], filter: &[Mat3A], b: &[Vec3A], z: &[Vec3A]) -> Vec<f64> {
+        let n = b.len();
+        let m = 3 * n;
+        let mut s = vec![0.0; m * m];
+        for (i, f) in filter.iter().enumerate() {
+            let f = block_f64(f);
+            for r in 0..3 {
+                for c in 0..3 {
+                    s[(3 * i + r) * m + 3 * i + c] = f[r][c];
+                }
+            }
+        }
+        let mm = |x: &[f64], y: &[f64]| -> Vec<f64> {
+            let mut o = vec![0.0; m * m];
+            for i in 0..m {
+                for k in 0..m {
+                    let v = x[i * m + k];
+                    if v != 0.0 {
+                        for j in 0..m {
+                            o[i * m + j] += v * y[k * m + j];
+                        }
+                    }
+                }
+            }
+            o
+        };
+        let mv = |x: &[f64], v: &[f64]| -> Vec<f64> {
+            (0..m)
+                .map(|i| (0..m).map(|j| x[i * m + j] * v[j]).sum())
+                .collect()
+        };
+        let mut ims = s.iter().map(|v| -v).collect::<Vec<_>>();
+        for i in 0..m {
+            ims[i * m + i] += 1.0;
+        }
+        let mut lhs = mm(&mm(&s, a), &s);
+        for (l, v) in lhs.iter_mut().zip(&ims) {
+            *l += v;
+        }
+        let zc = mv(&ims, &flat(z));
+        let azc = mv(a, &zc);
+        let rhs0: Vec<f64> = flat(b).iter().zip(&azc).map(|(b, a)| b - a).collect();
+        let rhs: Vec<f64> = mv(&s, &rhs0).iter().zip(&zc).map(|(a, b)| a + b).collect();
+        dense_solve(&lhs, &rhs)
+    }
+
+    fn rel_err(x: &[Vec3A], want: &[f64]) -> f64 {
+        let got = flat(x);
+        let num: f64 = got.iter().zip(want).map(|(g, w)| (g - w) * (g - w)).sum();
+        let den: f64 = want.iter().map(|w| w * w).sum();
+        (num / den).sqrt()
+    }
+
+    fn settings(tolerance: f32, max_iterations: u32) -> Settings {
+        Settings {
+            tolerance,
+            max_iterations,
+        }
+    }
+
+    #[test]
+    fn random_spd_systems_match_a_dense_solve() {
+        let mut rng = Lcg(11);
+        for (n, stiffness) in [
+            (1usize, 1.0f32),
+            (2, 1.0),
+            (10, 1.0),
+            (40, 2.0),
+            (80, 0.5),
+            (60, 20.0),
+            (60, 200.0),
+        ] {
+            let sys = System::random(&mut rng, n, stiffness);
+            let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let want = dense_solve(&sys.dense(), &flat(&b));
+            let mut x = vec![Vec3A::ZERO; n];
+            let mut w = Scratch::new(n);
+            let st = solve(
+                &sys.matrix(),
+                &sys.precond(),
+                None,
+                &b,
+                &mut x,
+                &settings(1e-6, 500),
+                w.work(),
+            )
+            .unwrap();
+            assert!(st.converged, "n={n}: {st:?}");
+            assert!(st.residual <= 1e-6);
+            assert!(st.iterations <= 3 * n as u32 + 5, "n={n}: {st:?}");
+            let e = rel_err(&x, &want);
+            assert!(e <= 1e-5, "n={n}: relative error {e:e}, {st:?}");
+        }
+    }
+
+    #[test]
+    fn reported_residual_is_the_preconditioned_relative_residual() {
+        let mut rng = Lcg(12);
+        let n = 30;
+        let sys = System::random(&mut rng, n, 1.0);
+        let p = sys.precond();
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let mut x = vec![Vec3A::ZERO; n];
+        let mut w = Scratch::new(n);
+        let st = solve(
+            &sys.matrix(),
+            &p,
+            None,
+            &b,
+            &mut x,
+            &settings(1e-3, 500),
+            w.work(),
+        )
+        .unwrap();
+        assert!(st.converged && st.iterations > 1, "{st:?}");
+        // Recompute sqrt(rᵀPr / bᵀPb) from scratch with the true residual.
+        let mut ax = vec![Vec3A::ZERO; n];
+        sys.matrix().mul(&x, &mut ax).unwrap();
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..n {
+            let r = b[i] - ax[i];
+            num += dot64(r, p[i] * r);
+            den += dot64(b[i], p[i] * b[i]);
+        }
+        let true_rel = (num / den).sqrt() as f32;
+        assert!(
+            (true_rel - st.residual).abs() <= 1e-3 * st.residual + 1e-6,
+            "true {true_rel} vs reported {}",
+            st.residual
+        );
+        assert!(true_rel <= 1e-3);
+    }
+
+    #[test]
+    fn warm_start_from_the_exact_solution_needs_at_most_one_iteration() {
+        let mut rng = Lcg(13);
+        let n = 40;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let want = dense_solve(&sys.dense(), &flat(&b));
+        let mut x: Vec<Vec3A> = want
+            .chunks(3)
+            .map(|c| Vec3A::new(c[0] as f32, c[1] as f32, c[2] as f32))
+            .collect();
+        let mut w = Scratch::new(n);
+        let st = solve(
+            &sys.matrix(),
+            &sys.precond(),
+            None,
+            &b,
+            &mut x,
+            &settings(1e-5, 100),
+            w.work(),
+        )
+        .unwrap();
+        assert!(st.converged && st.iterations <= 1, "{st:?}");
+        // A cold start on the same system takes many more.
+        let mut x0 = vec![Vec3A::ZERO; n];
+        let cold = solve(
+            &sys.matrix(),
+            &sys.precond(),
+            None,
+            &b,
+            &mut x0,
+            &settings(1e-5, 100),
+            w.work(),
+        )
+        .unwrap();
+        assert!(cold.iterations > 5, "{cold:?}");
+    }
+
+    /// Random system, random warm start, filter with some constraints; solves and returns
+    /// `(x, z, dense reference, stats)`.
+    fn filtered_case(
+        seed: u64,
+        n: usize,
+        filter: &[Mat3A],
+        tolerance: f32,
+    ) -> (Vec<Vec3A>, Vec<Vec3A>, Vec<f64>, Stats) {
+        let mut rng = Lcg(seed);
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let z: Vec<Vec3A> = (0..n).map(|_| 2.0 * rng.vec()).collect();
+        let want = dense_filtered(&sys.dense(), filter, &b, &z);
+        let mut x = z.clone();
+        let mut w = Scratch::new(n);
+        let st = solve(
+            &sys.matrix(),
+            &sys.precond(),
+            Some(filter),
+            &b,
+            &mut x,
+            &settings(tolerance, 500),
+            w.work(),
+        )
+        .unwrap();
+        (x, z, want, st)
+    }
+
+    #[test]
+    fn pinned_vertices_keep_their_values_exactly() {
+        let n = 30;
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        for i in [0, 7, 8, 29] {
+            filter[i] = Mat3A::ZERO;
+        }
+        let (x, z, want, st) = filtered_case(21, n, &filter, 1e-6);
+        assert!(st.converged, "{st:?}");
+        for i in [0, 7, 8, 29] {
+            assert_eq!(x[i].to_array(), z[i].to_array(), "pinned vertex {i} moved");
+        }
+        let e = rel_err(&x, &want);
+        assert!(e <= 1e-5, "relative error {e:e}");
+        // And the pins matter: the unconstrained solution is different.
+        let mut rng = Lcg(21);
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let free = dense_solve(&sys.dense(), &flat(&b));
+        assert!(rel_err(&x, &free) > 1e-2);
+    }
+
+    #[test]
+    fn one_direction_constraints_hold_and_projected_equations_are_satisfied() {
+        let n = 30;
+        let nn = |n: Vec3A| {
+            let n = n.normalize();
+            Mat3A::from_cols(n * n.x, n * n.y, n * n.z)
+        };
+        let axis = Vec3A::Y; // a floor contact
+        let oblique = Vec3A::new(1.0, -2.0, 0.5).normalize();
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        filter[3] = Mat3A::IDENTITY - nn(axis);
+        filter[11] = Mat3A::IDENTITY - nn(axis);
+        filter[12] = Mat3A::IDENTITY - nn(oblique);
+        filter[20] = nn(oblique); // two directions held: free only along `oblique`
+        filter[25] = Mat3A::ZERO;
+        let (x, z, want, st) = filtered_case(22, n, &filter, 1e-6);
+        assert!(st.converged, "{st:?}");
+        // Axis-aligned: the held component is untouched, bit for bit.
+        assert_eq!(x[3].y.to_bits(), z[3].y.to_bits());
+        assert_eq!(x[11].y.to_bits(), z[11].y.to_bits());
+        assert_eq!(x[25].to_array(), z[25].to_array());
+        // Oblique: held up to the f32 rounding of the projection.
+        let held = |i: usize, d: Vec3A| (x[i].dot(d) - z[i].dot(d)).abs();
+        let scale = x[12].length().max(z[12].length());
+        assert!(held(12, oblique) <= 1e-6 * scale, "{}", held(12, oblique));
+        let (t1, t2) = oblique.any_orthonormal_pair();
+        assert!(held(20, t1) <= 1e-6 * scale && held(20, t2) <= 1e-6 * scale);
+        // The free components move (else this test proves nothing) and match the reference.
+        assert!((x[12] - z[12]).length() > 1e-2 && (x[20] - z[20]).length() > 1e-2);
+        let e = rel_err(&x, &want);
+        assert!(e <= 1e-5, "relative error {e:e}");
+    }
+
+    #[test]
+    fn identity_filter_gives_the_unconstrained_answer() {
+        let mut rng = Lcg(23);
+        let n = 25;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let p = sys.precond();
+        let ident = vec![Mat3A::IDENTITY; n];
+        let mut w = Scratch::new(n);
+        let mut x1 = vec![Vec3A::ZERO; n];
+        let mut x2 = vec![Vec3A::ZERO; n];
+        let s = settings(1e-6, 200);
+        let st1 = solve(&sys.matrix(), &p, None, &b, &mut x1, &s, w.work()).unwrap();
+        let st2 = solve(&sys.matrix(), &p, Some(&ident), &b, &mut x2, &s, w.work()).unwrap();
+        assert_eq!(st1, st2);
+        assert_eq!(x1, x2);
+    }
+
+    #[test]
+    fn zero_filtered_rhs() {
+        let mut rng = Lcg(24);
+        let n = 12;
+        let sys = System::random(&mut rng, n, 1.0);
+        let p = sys.precond();
+        let mut w = Scratch::new(n);
+        // S b = 0 and x = 0 already solves it: 0 iterations.
+        let b = vec![Vec3A::ZERO; n];
+        let mut x = vec![Vec3A::ZERO; n];
+        let st = solve(
+            &sys.matrix(),
+            &p,
+            None,
+            &b,
+            &mut x,
+            &settings(1e-6, 50),
+            w.work(),
+        )
+        .unwrap();
+        assert_eq!(
+            st,
+            Stats {
+                iterations: 0,
+                residual: 0.0,
+                converged: true
+            }
+        );
+        // S b = 0 but a pinned vertex is displaced: the reference falls back to the initial
+        // residual and the free vertices still relax.
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        filter[0] = Mat3A::ZERO;
+        let mut b = vec![Vec3A::ZERO; n];
+        b[0] = Vec3A::new(5.0, 0.0, 0.0); // filtered away
+        let mut z = vec![Vec3A::ZERO; n];
+        z[0] = Vec3A::new(0.0, 1.0, 0.0);
+        let want = dense_filtered(&sys.dense(), &filter, &b, &z);
+        let mut x = z.clone();
+        let st = solve(
+            &sys.matrix(),
+            &p,
+            Some(&filter),
+            &b,
+            &mut x,
+            &settings(1e-6, 200),
+            w.work(),
+        )
+        .unwrap();
+        // Converges in CG's usual count (without the fallback it would run until the
+        // recursive residual underflows to exactly 0).
+        assert!(st.converged && st.iterations > 0, "{st:?}");
+        assert!(st.iterations <= 3 * n as u32 && st.residual > 0.0, "{st:?}");
+        assert!(rel_err(&x, &want) <= 1e-5);
+    }
+
+    #[test]
+    fn iteration_cap_is_reported_not_an_error() {
+        let mut rng = Lcg(25);
+        let n = 40;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let mut w = Scratch::new(n);
+        for cap in [0u32, 1, 3] {
+            let mut x = vec![Vec3A::ZERO; n];
+            let st = solve(
+                &sys.matrix(),
+                &sys.precond(),
+                None,
+                &b,
+                &mut x,
+                &settings(1e-6, cap),
+                w.work(),
+            )
+            .unwrap();
+            assert_eq!(st.iterations, cap);
+            assert!(!st.converged && st.residual > 1e-6, "{st:?}");
+        }
+    }
+
+    #[test]
+    fn input_errors() {
+        let mut rng = Lcg(26);
+        let n = 5;
+        let sys = System::random(&mut rng, n, 1.0);
+        let p = sys.precond();
+        let b = vec![Vec3A::ONE; n];
+        let s = settings(1e-6, 50);
+        let mut w = Scratch::new(n + 2); // longer work is fine
+        let mut x = vec![Vec3A::ZERO; n];
+        assert!(solve(&sys.matrix(), &p, None, &b, &mut x, &s, w.work()).is_ok());
+
+        let lm = Err(PcgError::LengthMismatch);
+        assert_eq!(
+            solve(&sys.matrix(), &p, None, &b, &mut x[..4], &s, w.work()),
+            lm
+        );
+        assert_eq!(
+            solve(&sys.matrix(), &p[..4], None, &b, &mut x, &s, w.work()),
+            lm
+        );
+        let f = vec![Mat3A::IDENTITY; n - 1];
+        assert_eq!(
+            solve(&sys.matrix(), &p, Some(&f), &b, &mut x, &s, w.work()),
+            lm
+        );
+        let mut short = Scratch::new(n - 1);
+        assert_eq!(
+            solve(&sys.matrix(), &p, None, &b, &mut x, &s, short.work()),
+            lm
+        );
+
+        let nf = Err(PcgError::NonFinite);
+        let mut bad = b.clone();
+        bad[2].y = f32::NAN;
+        assert_eq!(
+            solve(&sys.matrix(), &p, None, &bad, &mut x, &s, w.work()),
+            nf
+        );
+        bad[2].y = f32::INFINITY;
+        assert_eq!(
+            solve(&sys.matrix(), &p, None, &bad, &mut x, &s, w.work()),
+            nf
+        );
+        let mut xb = x.clone();
+        xb[4].z = f32::NAN;
+        assert_eq!(
+            solve(&sys.matrix(), &p, None, &b, &mut xb, &s, w.work()),
+            nf
+        );
+        let mut f = vec![Mat3A::IDENTITY; n];
+        f[1].x_axis.x = f32::NAN;
+        assert_eq!(
+            solve(&sys.matrix(), &p, Some(&f), &b, &mut x, &s, w.work()),
+            nf
+        );
+        let mut pb = p.clone();
+        pb[0].z_axis.z = f32::INFINITY;
+        assert_eq!(
+            solve(&sys.matrix(), &pb, None, &b, &mut x, &s, w.work()),
+            nf
+        );
+
+        // Empty problem.
+        let st = solve(&sys.matrix(), &[], None, &[], &mut [], &s, w.work()).unwrap();
+        assert!(st.converged && st.iterations == 0);
+    }
+
+    /// `−A`: symmetric negative definite.
+    struct Negated<'a>(BlockMatrix<'a>);
+    impl Operator for Negated<'_> {
+        fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]) {
+            self.0.apply(x, y);
+            for v in y.iter_mut() {
+                *v = -*v;
+            }
+        }
+    }
+
+    /// `A` with one eigen-direction flipped: indefinite, but positive along many vectors.
+    struct Indefinite;
+    impl Operator for Indefinite {
+        fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]) {
+            for (i, (y, x)) in y.iter_mut().zip(x).enumerate() {
+                *y = if i == 3 {
+                    Vec3A::new(-10.0 * x.x, x.y, x.z)
+                } else {
+                    *x * (1.0 + i as f32)
+                };
+            }
+        }
+    }
+
+    #[test]
+    fn indefinite_or_broken_operators_are_breakdowns() {
+        let mut rng = Lcg(27);
+        let n = 8;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let s = settings(1e-6, 100);
+        let mut w = Scratch::new(n);
+        let bd = Err(PcgError::Breakdown);
+
+        let p = sys.precond();
+        let mut x = vec![Vec3A::ZERO; n];
+        assert_eq!(
+            solve(&Negated(sys.matrix()), &p, None, &b, &mut x, &s, w.work()),
+            bd
+        );
+
+        let ident = vec![Mat3A::IDENTITY; n];
+        let mut x = vec![Vec3A::ZERO; n];
+        // Mostly along the negative direction, so the first curvature cᵀAc = bᵀAb is < 0.
+        let mut bi = vec![Vec3A::splat(0.1); n];
+        bi[3] = Vec3A::X;
+        let r = solve(&Indefinite, &ident, None, &bi, &mut x, &s, w.work());
+        assert_eq!(r, bd);
+        // ... but the same operator is fine where the filter removes the bad direction.
+        let mut f = vec![Mat3A::IDENTITY; n];
+        f[3] = Mat3A::from_diagonal(glam::Vec3::new(0.0, 1.0, 1.0));
+        let mut x = vec![Vec3A::ZERO; n];
+        let st = solve(&Indefinite, &ident, Some(&f), &bi, &mut x, &s, w.work()).unwrap();
+        assert!(st.converged);
+
+        // A matrix of the wrong size fills y with NaN.
+        let small = System::random(&mut rng, n - 1, 1.0);
+        let mut x = vec![Vec3A::ZERO; n];
+        assert_eq!(
+            solve(&small.matrix(), &p, None, &b, &mut x, &s, w.work()),
+            bd
+        );
+
+        // A non-SPD preconditioner.
+        let neg = vec![-Mat3A::IDENTITY; n];
+        let mut x = vec![Vec3A::ZERO; n];
+        assert_eq!(
+            solve(&sys.matrix(), &neg, None, &b, &mut x, &s, w.work()),
+            bd
+        );
+    }
+
+    #[test]
+    fn solves_are_bit_reproducible() {
+        let mut rng = Lcg(28);
+        let n = 50;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        filter[5] = Mat3A::ZERO;
+        let x0: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let run = || {
+            let mut x = x0.clone();
+            let mut w = Scratch::new(n);
+            let st = solve(
+                &sys.matrix(),
+                &sys.precond(),
+                Some(&filter),
+                &b,
+                &mut x,
+                &settings(1e-6, 500),
+                w.work(),
+            )
+            .unwrap();
+            (
+                x.iter()
+                    .flat_map(|v| v.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>(),
+                st,
+            )
+        };
+        let (a, sa) = run();
+        let (b2, sb) = run();
+        assert_eq!(a, b2);
+        assert_eq!(sa.residual.to_bits(), sb.residual.to_bits());
+        assert_eq!(sa.iterations, sb.iterations);
+    }
+
+    #[test]
+    fn invert_block_inverts_spd_blocks() {
+        let mut rng = Lcg(29);
+        for _ in 0..100 {
+            let l = rng.mat();
+            let m = l * l.transpose() + 0.2 * Mat3A::IDENTITY;
+            let inv = invert_block(m);
+            assert_eq!(inv, inv.transpose(), "exactly symmetric");
+            let e = (inv * m - Mat3A::IDENTITY).to_cols_array();
+            let cond = 30.0; // generous for these blocks
+            assert!(e.iter().all(|v| v.abs() <= 1e-6 * cond), "{e:?}");
+        }
+        // A stiff in-plane block seen in a rotated frame (condition 1e4) is still inverted
+        // in full, not by its diagonal.
+        let nrm = Vec3A::new(1.0, 1.0, 1.0).normalize();
+        let nnt = Mat3A::from_cols(nrm * nrm.x, nrm * nrm.y, nrm * nrm.z);
+        let m = 1e4 * (Mat3A::IDENTITY - nnt) + nnt;
+        let inv = invert_block(m);
+        let err = (inv * nrm - nrm).length();
+        assert!(err <= 1e-2, "normal direction {err}");
+    }
+
+    #[test]
+    fn invert_block_falls_back_to_point_jacobi() {
+        // Singular (rank 1) SPD-looking block.
+        let v = Vec3A::new(1.0, 2.0, 3.0);
+        let m = Mat3A::from_cols(v * v.x, v * v.y, v * v.z);
+        let inv = invert_block(m);
+        assert_eq!(
+            inv,
+            Mat3A::from_diagonal(glam::Vec3::new(1.0, 0.25, 1.0 / 9.0))
+        );
+        // Nearly singular (scaled det ~1e-7).
+        let m2 = m + 1e-6 * Mat3A::IDENTITY;
+        assert!(invert_block(m2).y_axis.x == 0.0);
+        // Not positive definite although the diagonal is positive.
+        let m3 = Mat3A::from_cols(
+            Vec3A::new(1.0, 2.0, 0.0),
+            Vec3A::new(2.0, 1.0, 0.0),
+            Vec3A::new(0.0, 0.0, 4.0),
+        );
+        assert_eq!(
+            invert_block(m3),
+            Mat3A::from_diagonal(glam::Vec3::new(1.0, 1.0, 0.25))
+        );
+        // Non-finite and non-positive entries: finite, positive, never NaN.
+        let mut m4 = Mat3A::from_diagonal(glam::Vec3::new(-2.0, 0.0, 4.0));
+        m4.y_axis.x = f32::NAN;
+        assert_eq!(
+            invert_block(m4),
+            Mat3A::from_diagonal(glam::Vec3::new(1.0, 1.0, 0.25))
+        );
+        let m5 = Mat3A::from_diagonal(glam::Vec3::new(f32::INFINITY, 1e-45, f32::NAN));
+        assert_eq!(invert_block(m5), Mat3A::IDENTITY);
+        assert!(invert_block(Mat3A::ZERO) == Mat3A::IDENTITY);
+        // Slightly asymmetric input is symmetrized.
+        let mut m6 = Mat3A::from_diagonal(glam::Vec3::new(2.0, 3.0, 4.0));
+        m6.y_axis.x = 0.5;
+        m6.x_axis.y = 0.3;
+        let inv = invert_block(m6);
+        assert_eq!(inv, inv.transpose());
+        let sym = (m6 + m6.transpose()) * 0.5;
+        assert!((inv * sym - Mat3A::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|v| v.abs() < 1e-6));
+    }
+}

@@ -1,1 +1,861 @@
-//! (to be written: see docs/ARCHITECTURE.md)
+//! Symmetric 3×3-block sparse matrix on caller-owned slices.
+//!
+//! Storage (nothing here owns memory; the runtime `World` carves the slices from its block):
+//! * `diag: &[Mat3A]`, `n` diagonal blocks `A_ii`;
+//! * the strictly-upper blocks in CSR form: [`Pattern`] (`row_start`, `n + 1` entries, and
+//!   `cols`, sorted ascending within a row, every column `> row`) plus `off: &[Mat3A]` with
+//!   one block `A_ij` (`i < j`) per pattern entry. The lower blocks are implied: `A_ji = A_ijᵀ`.
+//!
+//! The bending Hessian is a scalar per block times `I3`, so the same pattern also carries a
+//! scalar matrix `S` (`diag: &[f32]`, `off: &[f32]`) applied as `S ⊗ I3`
+//! ([`mul_scalar_add`], [`add_scalar`]).
+//!
+//! Every function is panic-free on any input: lengths are checked up front and every
+//! data-dependent index goes through `get`. A structurally invalid [`Pattern`] (built by hand
+//! rather than by [`build_pattern`]) gives [`SparseError::InvalidPattern`] or, where no index
+//! goes out of range, a well-defined but meaningless result; [`Pattern::validate`] checks one
+//! fully, once, at the boundary.
+#![deny(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unreachable
+)]
+
+use core::ops::Range;
+use glam::{Mat3A, Vec3A};
+
+/// Errors of the sparse-matrix functions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SparseError {
+    /// A vertex index (in a coupling pair or an assembly call) is `>= n`.
+    IndexOutOfRange,
+    /// `cols` cannot hold the (not yet deduplicated) couplings; see [`build_pattern`].
+    CapacityExceeded,
+    /// `row_start` is shorter than `n + 1`.
+    RowStartTooShort,
+    /// Slice lengths disagree with each other or with the pattern.
+    LengthMismatch,
+    /// [`add_block`] / [`add_scalar`]: the pattern has no entry for this block.
+    MissingBlock,
+    /// The pattern is not a valid strictly-upper CSR pattern (see [`Pattern::validate`]).
+    InvalidPattern,
+}
+
+/// Strictly-upper CSR sparsity pattern of a symmetric block matrix with `n = row_start.len() - 1`
+/// block rows. Row `i`'s entries are `row_start[i]..row_start[i + 1]`, their block columns
+/// `cols[k]`; the number of entries is `row_start[n]`, so `cols` may be longer (capacity).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pattern<'a> {
+    pub row_start: &'a [u32],
+    pub cols: &'a [u32],
+}
+
+impl<'a> Pattern<'a> {
+    /// Number of block rows (`row_start.len() - 1`, 0 for an empty `row_start`).
+    #[inline]
+    pub fn n(&self) -> usize {
+        self.row_start.len().saturating_sub(1)
+    }
+
+    /// Number of strictly-upper entries, `row_start[n]` (0 for an empty `row_start`).
+    #[inline]
+    pub fn nnz(&self) -> usize {
+        self.row_start.last().map_or(0, |&e| e as usize)
+    }
+
+    /// Entry range of row `i` (indices into `cols` / `off`), or `None` if `i >= n` or the
+    /// range is malformed (decreasing or beyond `cols`).
+    #[inline]
+    pub fn row_range(&self, i: usize) -> Option<Range<usize>> {
+        let a = *self.row_start.get(i)? as usize;
+        let b = *self.row_start.get(i.checked_add(1)?)? as usize;
+        if a <= b && b <= self.cols.len() {
+            Some(a..b)
+        } else {
+            None
+        }
+    }
+
+    /// The strictly-upper neighbours of row `i` as `(k, j)`: entry index `k` (into `off`) and
+    /// block column `j > i`, ascending in `j`. Empty if `i` is out of range.
+    pub fn upper(&self, i: usize) -> impl Iterator<Item = (usize, usize)> + 'a {
+        let range = self.row_range(i).unwrap_or(0..0);
+        let start = range.start;
+        self.cols
+            .get(range)
+            .unwrap_or(&[])
+            .iter()
+            .enumerate()
+            .map(move |(k, &j)| (start + k, j as usize))
+    }
+
+    /// Entry index of block `(i, j)` for `i < j` (binary search within row `i`); `None` if
+    /// `i >= j`, `i` is out of range or the pattern lacks the block.
+    pub fn find(&self, i: usize, j: usize) -> Option<usize> {
+        if i >= j {
+            return None;
+        }
+        let j = u32::try_from(j).ok()?;
+        let range = self.row_range(i)?;
+        let start = range.start;
+        let row = self.cols.get(range)?;
+        row.binary_search(&j).ok().map(|k| start + k)
+    }
+
+    /// Full structural check: `row_start[0] == 0`, non-decreasing, `row_start[n] <= cols.len()`,
+    /// and within each row `i` the columns strictly increase and satisfy `i < j < n`.
+    /// Costs one pass over the pattern; meant for the boundary (e.g. `World` init).
+    pub fn validate(&self) -> Result<(), SparseError> {
+        let n = self.n();
+        if self.row_start.first().copied().unwrap_or(1) != 0 {
+            return Err(SparseError::InvalidPattern);
+        }
+        for i in 0..n {
+            let range = self.row_range(i).ok_or(SparseError::InvalidPattern)?;
+            let row = self.cols.get(range).ok_or(SparseError::InvalidPattern)?;
+            let mut prev = i; // columns must exceed the row, then strictly increase
+            for &j in row {
+                let j = j as usize;
+                if j <= prev || j >= n {
+                    return Err(SparseError::InvalidPattern);
+                }
+                prev = j;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A block matrix viewed as one value: diagonal blocks, pattern, strictly-upper blocks.
+/// Fields as for [`mul`]; [`BlockMatrix::validate`] checks them once.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockMatrix<'a> {
+    pub diag: &'a [Mat3A],
+    pub pattern: Pattern<'a>,
+    pub off: &'a [Mat3A],
+}
+
+impl BlockMatrix<'_> {
+    /// `y = A x`; see [`mul`].
+    #[inline]
+    pub fn mul(&self, x: &[Vec3A], y: &mut [Vec3A]) -> Result<(), SparseError> {
+        mul(self.diag, &self.pattern, self.off, x, y)
+    }
+
+    /// Pattern validity plus `diag.len() == n` and `off.len() >= nnz`.
+    pub fn validate(&self) -> Result<(), SparseError> {
+        self.pattern.validate()?;
+        if self.diag.len() != self.pattern.n() || self.off.len() < self.pattern.nnz() {
+            return Err(SparseError::LengthMismatch);
+        }
+        Ok(())
+    }
+}
+
+/// Number of `cols` entries [`build_pattern`] needs for `pairs`: the pairs that are not
+/// self-couplings, duplicates included (an upper bound on the final `nnz`; `pairs.len()`
+/// always suffices).
+pub fn pattern_capacity(pairs: &[[u32; 2]]) -> usize {
+    pairs.iter().filter(|p| p[0] != p[1]).count()
+}
+
+/// Builds the sorted, deduplicated strictly-upper pattern of the couplings `pairs` in place,
+/// without allocating, and returns `nnz`.
+///
+/// `pairs` may be in any order, in either orientation, with duplicates; self-pairs `(i, i)`
+/// are ignored (the diagonal is always stored). On success `row_start[..n + 1]` holds the row
+/// starts and `cols[..nnz]` the columns; use `Pattern { row_start: &row_start[..n + 1], cols }`.
+/// Entries of `row_start` beyond `n + 1` are left untouched.
+///
+/// Capacity: `cols` is also the scratch space of the counting sort, so it must hold every
+/// non-self pair *before* deduplication ([`pattern_capacity`]); otherwise
+/// [`SparseError::CapacityExceeded`]. Other errors: [`SparseError::RowStartTooShort`]
+/// (`row_start.len() < n + 1`), [`SparseError::IndexOutOfRange`] (a pair index `>= n`).
+/// On error the contents of `row_start` and `cols` are unspecified.
+pub fn build_pattern(
+    n: usize,
+    pairs: &[[u32; 2]],
+    row_start: &mut [u32],
+    cols: &mut [u32],
+) -> Result<usize, SparseError> {
+    let len = n.checked_add(1).ok_or(SparseError::RowStartTooShort)?;
+    let rs = row_start
+        .get_mut(..len)
+        .ok_or(SparseError::RowStartTooShort)?;
+
+    // Counting pass: rs[i] = entries of row i (duplicates included). Index checks happen here,
+    // before anything is written to `cols`.
+    rs.fill(0);
+    let mut total: u32 = 0;
+    for &[a, b] in pairs {
+        if a as usize >= n || b as usize >= n {
+            return Err(SparseError::IndexOutOfRange);
+        }
+        if a == b {
+            continue;
+        }
+        // Checked first so that no per-row count (each <= total) can overflow.
+        total = total.checked_add(1).ok_or(SparseError::CapacityExceeded)?;
+        let row = rs
+            .get_mut(a.min(b) as usize)
+            .ok_or(SparseError::IndexOutOfRange)?;
+        *row += 1;
+    }
+    if total as usize > cols.len() {
+        return Err(SparseError::CapacityExceeded);
+    }
+
+    // Inclusive prefix sum: rs[i] = end of row i. Filling then decrements rs[row] before each
+    // write, so afterwards rs[i] = start of row i (the classic in-place counting sort, which
+    // needs only n + 1 entries).
+    let mut acc: u32 = 0;
+    for r in rs.iter_mut() {
+        acc += *r; // partial sums of counts, bounded by `total`
+        *r = acc;
+    }
+    for &[a, b] in pairs {
+        if a == b {
+            continue;
+        }
+        let slot = rs
+            .get_mut(a.min(b) as usize)
+            .ok_or(SparseError::IndexOutOfRange)?;
+        *slot = slot.checked_sub(1).ok_or(SparseError::InvalidPattern)?;
+        *cols
+            .get_mut(*slot as usize)
+            .ok_or(SparseError::CapacityExceeded)? = a.max(b);
+    }
+    // rs[n] was the count of row n (always 0) plus all rows: it already equals `total`.
+
+    // Per-row sort, dedup and compaction towards the front. The write cursor `w` never passes
+    // the read position, so compacting in place is safe; rs[i] is overwritten only after row i
+    // has been read, and rs[i + 1] (row i's end) is still the old value when it is read.
+    let mut w: usize = 0;
+    for i in 0..n {
+        let start = *rs.get(i).ok_or(SparseError::InvalidPattern)? as usize;
+        let end = *rs.get(i + 1).ok_or(SparseError::InvalidPattern)? as usize;
+        let row = cols
+            .get_mut(start..end)
+            .ok_or(SparseError::InvalidPattern)?;
+        // core's unstable sort: no allocation, insertion sort on short rows, O(k log k) on a
+        // pathological long one.
+        row.sort_unstable();
+        let new_start = w;
+        for k in start..end {
+            let v = *cols.get(k).ok_or(SparseError::InvalidPattern)?;
+            let keep = w == new_start || cols.get(w - 1).is_some_and(|&prev| prev != v);
+            if keep {
+                *cols.get_mut(w).ok_or(SparseError::InvalidPattern)? = v;
+                w += 1;
+            }
+        }
+        *rs.get_mut(i).ok_or(SparseError::InvalidPattern)? = new_start as u32;
+    }
+    *rs.last_mut().ok_or(SparseError::RowStartTooShort)? = w as u32;
+    Ok(w)
+}
+
+/// `mᵀ v` without materializing more than a register transpose.
+#[inline(always)]
+fn tmul(m: &Mat3A, v: Vec3A) -> Vec3A {
+    m.transpose() * v
+}
+
+/// Checks the lengths shared by [`mul`] and [`mul_scalar_add`] and returns `nnz`.
+#[inline]
+fn check_lengths(
+    n_diag: usize,
+    p: &Pattern,
+    n_off: usize,
+    n_x: usize,
+    n_y: usize,
+) -> Result<usize, SparseError> {
+    let nnz = p.nnz();
+    let n = n_diag;
+    if p.row_start.len() != n + 1 || n_x != n || n_y != n || nnz > p.cols.len() || nnz > n_off {
+        return Err(SparseError::LengthMismatch);
+    }
+    Ok(nnz)
+}
+
+/// `y = A x` for the symmetric block matrix `A` (`diag`, `p`, `off`): each stored upper block
+/// contributes `A_ij x_j` to `y_i` and `A_ijᵀ x_i` to `y_j`. `y` is fully overwritten.
+///
+/// Requires `diag.len() == x.len() == y.len() == n`, `p.row_start.len() == n + 1`, and
+/// `cols.len()`, `off.len() >= nnz`; otherwise [`SparseError::LengthMismatch`] before anything
+/// is written. A malformed pattern that indexes out of range gives
+/// [`SparseError::InvalidPattern`], with `y` partially written.
+///
+/// Summation order is fixed (serial, row by row), so results are bit-reproducible.
+pub fn mul(
+    diag: &[Mat3A],
+    p: &Pattern,
+    off: &[Mat3A],
+    x: &[Vec3A],
+    y: &mut [Vec3A],
+) -> Result<(), SparseError> {
+    let nnz = check_lengths(diag.len(), p, off.len(), x.len(), y.len())?;
+    let (Some(cols), Some(off)) = (p.cols.get(..nnz), off.get(..nnz)) else {
+        return Err(SparseError::LengthMismatch);
+    };
+
+    // Pass 1: diagonal. Every y_j must be initialized before earlier rows scatter into it.
+    for ((yi, d), &xi) in y.iter_mut().zip(diag).zip(x) {
+        *yi = *d * xi;
+    }
+    // Pass 2: upper blocks. Row i gathers A_ij x_j into a register and scatters A_ijᵀ x_i.
+    for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
+        let &[a, b] = w else {
+            return Err(SparseError::InvalidPattern);
+        };
+        let range = a as usize..b as usize;
+        let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
+            return Err(SparseError::InvalidPattern);
+        };
+        let mut acc = Vec3A::ZERO;
+        for (&j, m) in rc.iter().zip(ro) {
+            let j = j as usize;
+            let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
+                return Err(SparseError::InvalidPattern);
+            };
+            acc += *m * xj;
+            *yj += tmul(m, xi);
+        }
+        if let Some(yi) = y.get_mut(i) {
+            *yi += acc;
+        }
+    }
+    Ok(())
+}
+
+/// `y += scale · (S ⊗ I3) x` for the symmetric *scalar* matrix `S` (`diag`, `p`, `off`) on the
+/// block pattern, e.g. the constant isometric bending Hessian (a scalar per block times `I3`).
+///
+/// Length requirements and errors as for [`mul`] (`diag: n`, `off >= nnz`); `y` is accumulated
+/// into, not overwritten.
+pub fn mul_scalar_add(
+    diag: &[f32],
+    p: &Pattern,
+    off: &[f32],
+    scale: f32,
+    x: &[Vec3A],
+    y: &mut [Vec3A],
+) -> Result<(), SparseError> {
+    let nnz = check_lengths(diag.len(), p, off.len(), x.len(), y.len())?;
+    let (Some(cols), Some(off)) = (p.cols.get(..nnz), off.get(..nnz)) else {
+        return Err(SparseError::LengthMismatch);
+    };
+
+    // One pass suffices since y is only accumulated into.
+    for (i, ((w, &xi), &d)) in p.row_start.windows(2).zip(x).zip(diag).enumerate() {
+        let &[a, b] = w else {
+            return Err(SparseError::InvalidPattern);
+        };
+        let range = a as usize..b as usize;
+        let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
+            return Err(SparseError::InvalidPattern);
+        };
+        let sxi = scale * xi;
+        let mut acc = d * xi;
+        for (&j, &s) in rc.iter().zip(ro) {
+            let j = j as usize;
+            let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
+                return Err(SparseError::InvalidPattern);
+            };
+            acc += s * xj;
+            *yj += s * sxi;
+        }
+        if let Some(yi) = y.get_mut(i) {
+            *yi += scale * acc;
+        }
+    }
+    Ok(())
+}
+
+/// Entry of block `(i, j)` in either orientation: `Ok(None)` for the diagonal, `Ok(Some((k,
+/// transposed)))` for an off-diagonal block stored at `off[k]` as `(min, max)`.
+fn locate(p: &Pattern, i: usize, j: usize) -> Result<Option<(usize, bool)>, SparseError> {
+    let n = p.n();
+    if i >= n || j >= n {
+        return Err(SparseError::IndexOutOfRange);
+    }
+    if i == j {
+        return Ok(None);
+    }
+    let k = p
+        .find(i.min(j), i.max(j))
+        .ok_or(SparseError::MissingBlock)?;
+    Ok(Some((k, i > j)))
+}
+
+/// Assembly helper: adds `m` to block `(i, j)`. `i == j` adds to `diag[i]`; `i < j` adds `m`
+/// to the stored upper block; `i > j` adds `mᵀ` to the stored block `(j, i)` (since
+/// `A_ji = A_ijᵀ`). Errors: [`SparseError::IndexOutOfRange`] (`i` or `j >= n`),
+/// [`SparseError::MissingBlock`], [`SparseError::LengthMismatch`] (`diag`/`off` too short).
+/// Nothing is written on error.
+pub fn add_block(
+    p: &Pattern,
+    diag: &mut [Mat3A],
+    off: &mut [Mat3A],
+    i: usize,
+    j: usize,
+    m: Mat3A,
+) -> Result<(), SparseError> {
+    let target = match locate(p, i, j)? {
+        None => (diag.get_mut(i), m),
+        Some((k, false)) => (off.get_mut(k), m),
+        Some((k, true)) => (off.get_mut(k), m.transpose()),
+    };
+    let (Some(slot), m) = target else {
+        return Err(SparseError::LengthMismatch);
+    };
+    *slot += m;
+    Ok(())
+}
+
+/// Scalar twin of [`add_block`] for a matrix `S ⊗ I3` (symmetric, so the orientation does not
+/// matter).
+pub fn add_scalar(
+    p: &Pattern,
+    diag: &mut [f32],
+    off: &mut [f32],
+    i: usize,
+    j: usize,
+    s: f32,
+) -> Result<(), SparseError> {
+    let slot = match locate(p, i, j)? {
+        None => diag.get_mut(i),
+        Some((k, _)) => off.get_mut(k),
+    };
+    *slot.ok_or(SparseError::LengthMismatch)? += s;
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// Deterministic LCG (Numerical Recipes constants), uniform in [-1, 1).
+    pub(crate) struct Lcg(pub u64);
+    impl Lcg {
+        pub(crate) fn next_u32(&mut self) -> u32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 33) as u32
+        }
+        pub(crate) fn uniform(&mut self) -> f32 {
+            (self.next_u32() as f64 / (1u64 << 31) as f64 * 2.0 - 1.0) as f32
+        }
+        pub(crate) fn below(&mut self, n: u32) -> u32 {
+            self.next_u32() % n
+        }
+        pub(crate) fn mat(&mut self) -> Mat3A {
+            Mat3A::from_cols_array(&core::array::from_fn(|_| self.uniform()))
+        }
+        pub(crate) fn vec(&mut self) -> Vec3A {
+            Vec3A::new(self.uniform(), self.uniform(), self.uniform())
+        }
+    }
+
+    /// An owned pattern built by `build_pattern`.
+    pub(crate) struct OwnedPattern {
+        pub row_start: Vec<u32>,
+        pub cols: Vec<u32>,
+    }
+    impl OwnedPattern {
+        pub(crate) fn build(n: usize, pairs: &[[u32; 2]]) -> Self {
+            let mut row_start = vec![0; n + 1];
+            let mut cols = vec![0; pattern_capacity(pairs)];
+            let nnz = build_pattern(n, pairs, &mut row_start, &mut cols).unwrap();
+            cols.truncate(nnz);
+            Self { row_start, cols }
+        }
+        pub(crate) fn pattern(&self) -> Pattern<'_> {
+            Pattern {
+                row_start: &self.row_start,
+                cols: &self.cols,
+            }
+        }
+    }
+
+    /// Random couplings: a ring (so every vertex is coupled) plus random extras, with
+    /// duplicates, both orientations and self pairs.
+    pub(crate) fn random_pairs(rng: &mut Lcg, n: usize, extra: usize) -> Vec<[u32; 2]> {
+        let n32 = n as u32;
+        let mut pairs: Vec<[u32; 2]> = (0..n32).map(|i| [i, (i + 1) % n32]).collect();
+        for _ in 0..extra {
+            pairs.push([rng.below(n32), rng.below(n32)]);
+        }
+        pairs
+    }
+
+    /// Dense 3n×3n row-major f64 expansion of a block matrix.
+    pub(crate) fn dense(diag: &[Mat3A], p: &Pattern, off: &[Mat3A]) -> Vec<f64> {
+        let n = diag.len();
+        let m = 3 * n;
+        let mut a = vec![0.0; m * m];
+        let mut put = |bi: usize, bj: usize, blk: &Mat3A, transposed: bool| {
+            for r in 0..3 {
+                for c in 0..3 {
+                    // Mat3A is column-major: col(c)[r] is row r, column c.
+                    let v = if transposed {
+                        blk.col(r)[c]
+                    } else {
+                        blk.col(c)[r]
+                    };
+                    a[(3 * bi + r) * m + 3 * bj + c] += v as f64;
+                }
+            }
+        };
+        for (i, d) in diag.iter().enumerate() {
+            put(i, i, d, false);
+        }
+        for i in 0..n {
+            for (k, j) in p.upper(i) {
+                put(i, j, &off[k], false);
+                put(j, i, &off[k], true);
+            }
+        }
+        a
+    }
+
+    fn dense_mul(a: &[f64], x: &[Vec3A]) -> Vec<f64> {
+        let m = 3 * x.len();
+        let xf: Vec<f64> = x.iter().flat_map(|v| v.to_array()).map(f64::from).collect();
+        (0..m)
+            .map(|r| (0..m).map(|c| a[r * m + c] * xf[c]).sum())
+            .collect()
+    }
+
+    fn assert_close(y: &[Vec3A], want: &[f64], tol: f64) {
+        let scale = want.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        for (i, v) in y.iter().enumerate() {
+            for c in 0..3 {
+                let d = (v[c] as f64 - want[3 * i + c]).abs();
+                assert!(
+                    d <= tol * scale,
+                    "entry {i}.{c}: {} vs {} (scale {scale})",
+                    v[c],
+                    want[3 * i + c]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn build_pattern_sorts_dedups_and_ignores_self_pairs() {
+        // Both orientations, duplicates, self pairs, any order.
+        let pairs = [
+            [3, 1],
+            [1, 3],
+            [0, 2],
+            [2, 2],
+            [2, 0],
+            [1, 0],
+            [3, 1],
+            [0, 3],
+            [4, 4],
+            [0, 1],
+        ];
+        let mut row_start = [99u32; 6 + 2];
+        let mut cols = [77u32; 10];
+        let nnz = build_pattern(5, &pairs, &mut row_start, &mut cols).unwrap();
+        assert_eq!(nnz, 4);
+        assert_eq!(&row_start[..6], &[0, 3, 4, 4, 4, 4]);
+        assert_eq!(&cols[..nnz], &[1, 2, 3, 3]);
+        assert_eq!(&row_start[6..], &[99, 99], "beyond n + 1 left untouched");
+        let p = Pattern {
+            row_start: &row_start[..6],
+            cols: &cols[..nnz],
+        };
+        p.validate().unwrap();
+        assert_eq!(p.n(), 5);
+        assert_eq!(p.nnz(), 4);
+        assert_eq!(p.find(0, 1), Some(0));
+        assert_eq!(p.find(0, 3), Some(2));
+        assert_eq!(p.find(1, 3), Some(3));
+        assert_eq!(p.find(3, 1), None, "only i < j");
+        assert_eq!(p.find(2, 2), None);
+        assert_eq!(p.find(1, 2), None);
+        assert_eq!(p.find(9, 10), None);
+        assert_eq!(p.upper(0).collect::<Vec<_>>(), vec![(0, 1), (1, 2), (2, 3)]);
+        assert_eq!(p.upper(1).collect::<Vec<_>>(), vec![(3, 3)]);
+        assert_eq!(p.upper(4).count(), 0);
+        assert_eq!(p.upper(17).count(), 0);
+    }
+
+    #[test]
+    fn build_pattern_matches_a_set_reference_on_random_input() {
+        let mut rng = Lcg(7);
+        for trial in 0..20 {
+            let n = 1 + rng.below(40) as usize;
+            let pairs = random_pairs(&mut rng, n, 5 * n);
+            let op = OwnedPattern::build(n, &pairs);
+            op.pattern().validate().unwrap();
+            let mut want = std::collections::BTreeSet::new();
+            for &[a, b] in &pairs {
+                if a != b {
+                    want.insert((a.min(b) as usize, a.max(b) as usize));
+                }
+            }
+            let got: std::collections::BTreeSet<_> = (0..n)
+                .flat_map(|i| op.pattern().upper(i).map(move |(_, j)| (i, j)))
+                .collect();
+            assert_eq!(got, want, "trial {trial}");
+            assert_eq!(op.cols.len(), want.len());
+        }
+    }
+
+    #[test]
+    fn build_pattern_errors() {
+        let pairs = [[0u32, 1], [1, 0], [1, 2], [2, 2]];
+        let mut rs = [0u32; 4];
+        // Capacity counts duplicates (3 non-self pairs) even though nnz is 2.
+        assert_eq!(pattern_capacity(&pairs), 3);
+        let mut cols = [0u32; 2];
+        assert_eq!(
+            build_pattern(3, &pairs, &mut rs, &mut cols),
+            Err(SparseError::CapacityExceeded)
+        );
+        let mut cols = [0u32; 3];
+        assert_eq!(build_pattern(3, &pairs, &mut rs, &mut cols), Ok(2));
+        assert_eq!(
+            build_pattern(3, &pairs, &mut rs[..3], &mut cols),
+            Err(SparseError::RowStartTooShort)
+        );
+        assert_eq!(
+            build_pattern(usize::MAX, &pairs, &mut rs, &mut cols),
+            Err(SparseError::RowStartTooShort)
+        );
+        assert_eq!(
+            build_pattern(2, &pairs, &mut rs, &mut cols),
+            Err(SparseError::IndexOutOfRange)
+        );
+        // Out of range even as a self pair.
+        assert_eq!(
+            build_pattern(3, &[[5, 5]], &mut rs, &mut cols),
+            Err(SparseError::IndexOutOfRange)
+        );
+        // Empty matrix.
+        let mut rs0 = [9u32; 1];
+        assert_eq!(build_pattern(0, &[], &mut rs0, &mut []), Ok(0));
+        assert_eq!(rs0, [0]);
+    }
+
+    #[test]
+    fn validate_rejects_malformed_patterns() {
+        let ok = Pattern {
+            row_start: &[0, 2, 3, 3],
+            cols: &[1, 2, 2],
+        };
+        ok.validate().unwrap();
+        for (rs, cols) in [
+            (&[1u32, 2, 3, 3][..], &[1u32, 2, 2][..]), // does not start at 0
+            (&[0, 2, 1, 3], &[1, 2, 2]),               // decreasing
+            (&[0, 2, 3, 4], &[1, 2, 2]),               // beyond cols
+            (&[0, 2, 3, 3], &[2, 1, 2]),               // unsorted
+            (&[0, 2, 3, 3], &[1, 1, 2]),               // duplicate
+            (&[0, 2, 3, 3], &[0, 2, 2]),               // diagonal
+            (&[0, 2, 3, 3], &[1, 2, 1]),               // lower
+            (&[0, 2, 3, 3], &[1, 3, 2]),               // column >= n
+            (&[], &[]),                                // no row_start at all
+        ] {
+            let p = Pattern {
+                row_start: rs,
+                cols,
+            };
+            assert_eq!(
+                p.validate(),
+                Err(SparseError::InvalidPattern),
+                "{rs:?} {cols:?}"
+            );
+        }
+    }
+
+    fn random_matrix(rng: &mut Lcg, n: usize) -> (OwnedPattern, Vec<Mat3A>, Vec<Mat3A>) {
+        let pairs = random_pairs(rng, n, 3 * n);
+        let op = OwnedPattern::build(n, &pairs);
+        let diag: Vec<Mat3A> = (0..n)
+            .map(|_| {
+                let m = rng.mat();
+                m + m.transpose()
+            })
+            .collect();
+        let off: Vec<Mat3A> = (0..op.cols.len()).map(|_| rng.mat()).collect();
+        (op, diag, off)
+    }
+
+    #[test]
+    fn mul_matches_dense_reference() {
+        let mut rng = Lcg(42);
+        for n in [1usize, 2, 3, 7, 30, 64] {
+            let (op, diag, off) = random_matrix(&mut rng, n);
+            let p = op.pattern();
+            let a = dense(&diag, &p, &off);
+            // The dense expansion is symmetric by construction of the storage.
+            for r in 0..3 * n {
+                for c in 0..3 * n {
+                    assert_eq!(a[r * 3 * n + c], a[c * 3 * n + r]);
+                }
+            }
+            let x: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let mut y = vec![Vec3A::splat(f32::NAN); n]; // must be fully overwritten
+            mul(&diag, &p, &off, &x, &mut y).unwrap();
+            assert_close(&y, &dense_mul(&a, &x), 1e-5);
+            let mut y2 = vec![Vec3A::ZERO; n];
+            BlockMatrix {
+                diag: &diag,
+                pattern: p,
+                off: &off,
+            }
+            .mul(&x, &mut y2)
+            .unwrap();
+            assert_eq!(y, y2);
+        }
+    }
+
+    #[test]
+    fn mul_scalar_add_matches_dense_reference() {
+        let mut rng = Lcg(3);
+        let n = 25;
+        let pairs = random_pairs(&mut rng, n, 60);
+        let op = OwnedPattern::build(n, &pairs);
+        let p = op.pattern();
+        let sd: Vec<f32> = (0..n).map(|_| rng.uniform()).collect();
+        let so: Vec<f32> = (0..op.cols.len()).map(|_| rng.uniform()).collect();
+        // The same matrix as blocks s·I3, through the block path.
+        let bd: Vec<Mat3A> = sd
+            .iter()
+            .map(|&s| Mat3A::from_diagonal(glam::Vec3::splat(s)))
+            .collect();
+        let bo: Vec<Mat3A> = so
+            .iter()
+            .map(|&s| Mat3A::from_diagonal(glam::Vec3::splat(s)))
+            .collect();
+        let a = dense(&bd, &p, &bo);
+        let x: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let y0: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let scale = -2.5;
+        let mut y = y0.clone();
+        mul_scalar_add(&sd, &p, &so, scale, &x, &mut y).unwrap();
+        let ax = dense_mul(&a, &x);
+        let want: Vec<f64> = (0..3 * n)
+            .map(|k| y0[k / 3][k % 3] as f64 + scale as f64 * ax[k])
+            .collect();
+        assert_close(&y, &want, 1e-5);
+    }
+
+    #[test]
+    fn length_and_pattern_errors_never_panic() {
+        let mut rng = Lcg(5);
+        let (op, diag, off) = random_matrix(&mut rng, 6);
+        let p = op.pattern();
+        let x = vec![Vec3A::ONE; 6];
+        let mut y = vec![Vec3A::ZERO; 6];
+        let e = Err(SparseError::LengthMismatch);
+        assert_eq!(mul(&diag[..5], &p, &off, &x, &mut y), e);
+        assert_eq!(mul(&diag, &p, &off[..off.len() - 1], &x, &mut y), e);
+        assert_eq!(mul(&diag, &p, &off, &x[..5], &mut y), e);
+        assert_eq!(mul(&diag, &p, &off, &x, &mut y[..5]), e);
+        let short = Pattern {
+            row_start: &op.row_start[..6],
+            cols: &op.cols,
+        };
+        assert_eq!(mul(&diag, &short, &off, &x, &mut y), e);
+        let sd = vec![1.0f32; 6];
+        let so = vec![1.0f32; op.cols.len()];
+        assert_eq!(mul_scalar_add(&sd[..5], &p, &so, 1.0, &x, &mut y), e);
+        assert_eq!(mul_scalar_add(&sd, &p, &so[..1], 1.0, &x, &mut y), e);
+        // Hand-made garbage: column out of range, row ranges decreasing.
+        let bad_col = Pattern {
+            row_start: &[0, 1, 1],
+            cols: &[7],
+        };
+        let d2 = [Mat3A::IDENTITY; 2];
+        let o1 = [Mat3A::IDENTITY; 1];
+        let (x2, mut y2) = ([Vec3A::ONE; 2], [Vec3A::ZERO; 2]);
+        assert_eq!(
+            mul(&d2, &bad_col, &o1, &x2, &mut y2),
+            Err(SparseError::InvalidPattern)
+        );
+        assert_eq!(
+            mul_scalar_add(&[1.0; 2], &bad_col, &[1.0], 1.0, &x2, &mut y2),
+            Err(SparseError::InvalidPattern)
+        );
+        let decreasing = Pattern {
+            row_start: &[0, 1, 0],
+            cols: &[1],
+        };
+        assert_eq!(
+            mul(&d2, &decreasing, &[Mat3A::IDENTITY; 1], &x2, &mut y2),
+            Err(SparseError::InvalidPattern),
+            "nnz = row_start[n] = 0 but row 0 claims an entry"
+        );
+        let decreasing = Pattern {
+            row_start: &[0, 2, 1],
+            cols: &[1, 1],
+        };
+        assert_eq!(
+            mul(&d2, &decreasing, &[Mat3A::IDENTITY; 2], &x2, &mut y2),
+            Err(SparseError::InvalidPattern)
+        );
+        // Empty matrix is fine.
+        let empty = Pattern {
+            row_start: &[0],
+            cols: &[],
+        };
+        assert_eq!(mul(&[], &empty, &[], &[], &mut []), Ok(()));
+    }
+
+    #[test]
+    fn add_block_and_add_scalar_assemble_in_either_orientation() {
+        let op = OwnedPattern::build(4, &[[0, 1], [2, 1], [3, 0]]);
+        let p = op.pattern();
+        let mut diag = vec![Mat3A::ZERO; 4];
+        let mut off = vec![Mat3A::ZERO; op.cols.len()];
+        let m = Mat3A::from_cols_array(&[1., 2., 3., 4., 5., 6., 7., 8., 9.]);
+        add_block(&p, &mut diag, &mut off, 1, 1, m).unwrap();
+        add_block(&p, &mut diag, &mut off, 0, 1, m).unwrap();
+        add_block(&p, &mut diag, &mut off, 2, 1, m).unwrap(); // stored as (1, 2): mᵀ
+        add_block(&p, &mut diag, &mut off, 1, 2, m).unwrap();
+        assert_eq!(diag[1], m);
+        assert_eq!(off[p.find(0, 1).unwrap()], m);
+        assert_eq!(off[p.find(1, 2).unwrap()], m + m.transpose());
+        // Dense view: block (2, 1) is the transpose of (1, 2), i.e. m + mᵀ again, and the
+        // block added as (2, 1) = m lands where it was put.
+        let a = dense(&diag, &p, &off);
+        let at = |r: usize, c: usize| a[r * 12 + c];
+        assert_eq!(at(6, 3), (m + m.transpose()).col(0)[0] as f64);
+        assert_eq!(at(6 + 1, 3), (m + m.transpose()).col(0)[1] as f64);
+
+        let e = add_block(&p, &mut diag, &mut off, 0, 2, m);
+        assert_eq!(e, Err(SparseError::MissingBlock));
+        let e = add_block(&p, &mut diag, &mut off, 0, 4, m);
+        assert_eq!(e, Err(SparseError::IndexOutOfRange));
+        let e = add_block(&p, &mut diag[..1], &mut off, 2, 2, m);
+        assert_eq!(e, Err(SparseError::LengthMismatch));
+        let e = add_block(&p, &mut diag, &mut off[..0], 0, 1, m);
+        assert_eq!(e, Err(SparseError::LengthMismatch));
+
+        let mut sd = vec![0.0f32; 4];
+        let mut so = vec![0.0f32; op.cols.len()];
+        add_scalar(&p, &mut sd, &mut so, 3, 3, 2.0).unwrap();
+        add_scalar(&p, &mut sd, &mut so, 0, 3, 1.0).unwrap();
+        add_scalar(&p, &mut sd, &mut so, 3, 0, 0.5).unwrap();
+        assert_eq!(sd, [0.0, 0.0, 0.0, 2.0]);
+        assert_eq!(so[p.find(0, 3).unwrap()], 1.5);
+        assert_eq!(
+            add_scalar(&p, &mut sd, &mut so, 2, 3, 1.0),
+            Err(SparseError::MissingBlock)
+        );
+        assert_eq!(
+            add_scalar(&p, &mut sd, &mut so, 9, 3, 1.0),
+            Err(SparseError::IndexOutOfRange)
+        );
+    }
+}
