@@ -378,8 +378,8 @@ pub fn update_rotations(
 ///   (`gain = nᵀMn − tr M > 0` with `M = RᵀA`; candidate axes are the frame axes refined by
 ///   a few power steps towards the top eigenvector of `sym(M)`; a few dozen flops) and, if it
 ///   does, applies it; at most three times per call. Each half-turn strictly raises the
-///   trace, and with a negative trace one always exists, so this terminates and ends with a
-///   positive trace.
+///   trace, and for a trace `t < 0` the best frame axis alone gains at least `−2t/3`, so
+///   after one half-turn the trace is positive.
 ///
 /// Convergence is linear: near the answer `A = R S` the angle error is multiplied by
 /// `λ_max(S)/tr(S)` (between 1/3 and 1) per step, so warm starting matters.
@@ -890,6 +890,9 @@ mod tests {
         assert_eq!(q, Quat::from_rotation_x(0.3));
         let inf = Mat3A::from_cols(Vec3A::X, Vec3A::new(0.0, f32::INFINITY, 0.0), Vec3A::Z);
         extract_rotation(&inf, &mut q, 10);
+        assert_eq!(q, Quat::from_rotation_x(0.3));
+        // NaN moment matrix with a (finite) ellipsoid term: unchanged too.
+        extract(&nan, Vec3A::splat(0.1), &mut q, 10);
         assert_eq!(q, Quat::from_rotation_x(0.3));
         // Zero matrix: unchanged.
         extract_rotation(&Mat3A::ZERO, &mut q, 10);
