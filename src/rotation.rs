@@ -31,12 +31,12 @@
 //!   symmetric for a rigid motion.
 //! * We read `R_i` in Eq. 15 as the rotation being solved for (Eq. 14–16 as a fixed point), and
 //!   evaluate the ellipsoid term with the current iterate inside the iteration. Because
-//!   `r_k × (d_k r_k) = 0`, it then adds no torque: it only damps the step (it enters the
-//!   denominator) and, where the one-ring carries no information (a degenerate ring), leaves the
-//!   warm start in place. It never moves the fixed point, so rigid motions are recovered
-//!   exactly.
-//! * Radii as Müller & Chentanez suggest, so `A` is never singular: `a = b` = half the mean rest
-//!   edge length from `i` to its neighbours, `c = a/10` (a thin disc in the sheet).
+//!   `r_k × (d_k r_k) = 0`, it then adds no torque: it never moves the fixed point (rigid
+//!   motions are recovered exactly) and only enters the step's denominator, which it keeps
+//!   away from zero and damps slightly. Where the ring carries no information (a degenerate
+//!   ring) there is no torque and the warm start stays.
+//! * Radii as Müller & Chentanez suggest, so that `A` keeps full rank: `a = b` = half the mean
+//!   rest edge length from `i` to its neighbours, `c = a/10` (a thin disc in the sheet).
 //! * The normal term `z Zᵀ` ("revision matrix") makes `R_i Z` follow the current vertex normal
 //!   `z_i`, which is what disambiguates flipped and folded sheets. As printed it has units of
 //!   1 while the other terms are kg·m², so its effect would depend on the mesh size and density.
@@ -366,9 +366,9 @@ pub fn update_rotations(
 ///
 /// Deviations from the paper, all for robustness in `f32`:
 /// * `A` is first divided by its largest entry (the rotation does not change), so `ε = 1e-9`
-///   is relative rather than in the units of `A` (kg·m² here: for a 1 cm, 2 g ring the
-///   absolute 1e-9 of the paper would be comparable to `A` itself), and tiny or huge matrices
-///   neither underflow nor overflow;
+///   is relative rather than in the units of `A` (kg·m² here: for a 1 cm mesh of 200 g/m²
+///   cloth the entries of `A` are ~1e-9, the size of the paper's absolute ε), and tiny or
+///   huge matrices neither underflow nor overflow;
 /// * a step is clamped to [`MAX_STEP`] radians;
 /// * the iteration is a scaled gradient ascent of `tr(RᵀA)`: it stalls on the saddle points,
 ///   which are half-turns of the answer (identity warm start and a sheet turned upside down:
