@@ -824,6 +824,7 @@ pub fn rotate90(desc: &CellDesc) -> CellDesc {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the numbering formulas
 mod tests {
     use super::*;
 
