@@ -25,6 +25,8 @@ use std::fmt;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
 };
@@ -141,6 +143,9 @@ fn material_ok(m: &Material) -> bool {
 struct Pattern {
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
+    /// The same at node level (node `n ≥ 1` is index `n-1`), for the fill-reducing ordering.
+    node_col_ptr: Vec<usize>,
+    node_row_idx: Vec<usize>,
 }
 
 impl Pattern {
@@ -177,10 +182,21 @@ fn pattern(n_nodes: usize, triangles: &[[u32; 3]]) -> Pattern {
     let ndof = 2 * (n_nodes - 1);
     let mut col_ptr = Vec::with_capacity(ndof + 1);
     let mut row_idx = Vec::with_capacity(7 * 2 * ndof);
+    let mut node_col_ptr = Vec::with_capacity(n_nodes);
+    let mut node_row_idx = Vec::with_capacity(4 * n_nodes);
     col_ptr.push(0);
+    node_col_ptr.push(0);
     for n in 1..n_nodes {
         let list = &mut adj[count[n]..count[n + 1]];
         list.sort_unstable();
+        let mut last = u32::MAX;
+        for &m in list.iter() {
+            if m != last && m != 0 && m as usize <= n {
+                node_row_idx.push(m as usize - 1);
+            }
+            last = m;
+        }
+        node_col_ptr.push(node_row_idx.len());
         for r in 0..2 {
             let col = 2 * (n - 1) + r;
             let mut last = u32::MAX;
@@ -199,14 +215,47 @@ fn pattern(n_nodes: usize, triangles: &[[u32; 3]]) -> Pattern {
             col_ptr.push(row_idx.len());
         }
     }
-    Pattern { col_ptr, row_idx }
+    Pattern {
+        col_ptr,
+        row_idx,
+        node_col_ptr,
+        node_row_idx,
+    }
+}
+
+/// Fill-reducing ordering of the dofs: AMD on the node graph, each node's two dofs kept
+/// together. Ordering the node graph is 4× smaller than the dof graph, and the 2×2 blocks
+/// stay contiguous, which gives the supernodal factorization wider supernodes.
+/// Returns (forward, inverse) dof permutations.
+fn node_block_ordering(pat: &Pattern) -> Result<(Vec<usize>, Vec<usize>), HomogenizeError> {
+    let n = pat.node_col_ptr.len() - 1;
+    let sym =
+        SymbolicSparseColMatRef::new_checked(n, n, &pat.node_col_ptr, None, &pat.node_row_idx);
+    let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
+    let mut buffer = MemBuffer::try_new(amd::order_scratch::<usize>(n, pat.node_row_idx.len()))
+        .map_err(|_| HomogenizeError::OutOfMemory)?;
+    amd::order(
+        &mut fwd,
+        &mut inv,
+        sym,
+        amd::Control::default(),
+        MemStack::new(&mut buffer),
+    )
+    .map_err(|e| HomogenizeError::Factorization(format!("{e:?}")))?;
+    let expand = |p: &[usize]| {
+        p.iter()
+            .flat_map(|&q| [2 * q, 2 * q + 1])
+            .collect::<Vec<_>>()
+    };
+    Ok((expand(&fwd), expand(&inv)))
 }
 
 /// Solves the periodic cell problem of `desc` on `mesh` (from [`crate::cell::mesh_cell`]).
 ///
-/// `progress` is called with the fraction done (0 to 1) after assembly, factorization and
-/// solve. The linear solver is faer's sparse Cholesky (AMD ordering), single-threaded: it is
-/// factored once and solves the three unit-strain right-hand sides together.
+/// `progress` is called with the fraction done (0 to 1): 0 at the start, 0.25 after assembly,
+/// 0.35 after the ordering, 0.8 after the factorization, 0.9 after the solves, 1 at the end.
+/// The linear solver is faer's sparse Cholesky (AMD on the node graph), single-threaded,
+/// factored once for the three unit-strain right-hand sides.
 pub fn homogenize(
     desc: &CellDesc,
     mesh: &MicroMesh,
@@ -343,10 +392,12 @@ pub fn homogenize(
         let sym =
             SymbolicSparseColMatRef::new_checked(ndof, ndof, &pat.col_ptr, None, &pat.row_idx);
         let kmat = SparseColMatRef::new(sym, &values);
+        let (fwd, inv) = node_block_ordering(&pat)?;
+        let perm = PermRef::new_checked(&fwd, &inv, ndof);
         let symbolic = factorize_symbolic_cholesky(
             sym,
             Side::Upper,
-            SymmetricOrdering::Amd,
+            SymmetricOrdering::Custom(perm),
             CholeskySymbolicParams::default(),
         )
         .map_err(|e| HomogenizeError::Factorization(format!("{e:?}")))?;
