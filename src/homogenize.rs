@@ -270,6 +270,14 @@ pub fn homogenize(
     if n_nodes == 0 || n_tris == 0 {
         return Err(HomogenizeError::EmptyMesh);
     }
+    // A periodic pixel mesh has nu·nv nodes and 2·nu·nv triangles; a sheet relabelled as
+    // periodic would not, and its pinned stiffness would keep the rotation mode.
+    if n_nodes != mesh.nu * mesh.nv || n_tris != 2 * n_nodes {
+        return Err(HomogenizeError::InconsistentMesh(format!(
+            "{n_nodes} nodes and {n_tris} triangles for a periodic {}×{} grid",
+            mesh.nu, mesh.nv
+        )));
+    }
     if mesh.tri_material.len() != n_tris || mesh.tri_corners.len() != n_tris {
         return Err(HomogenizeError::InconsistentMesh(format!(
             "{n_tris} triangles, {} materials, {} corner triples",

@@ -566,6 +566,13 @@ fn errors_and_progress() {
         Err(HomogenizeError::NotPeriodic)
     );
 
+    let mut relabelled = sheet.clone();
+    relabelled.periodic = true;
+    assert!(matches!(
+        homogenize(&desc, &relabelled, &mut |_| {}),
+        Err(HomogenizeError::InconsistentMesh(_))
+    ));
+
     let mut bad = mesh.clone();
     bad.tri_material[3] = 7;
     assert_eq!(
