@@ -46,7 +46,7 @@ pub const DEFAULT_BENDING: f64 = 1.0e-6;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// The key of the material in the file: a single pattern character, or `#rrggbb` (lower
-    /// case as written in the file) for a PNG pattern.
+    /// or upper case, as written in the file) for a PNG pattern.
     pub key: String,
     /// Membrane stiffness `C` (Voigt `[11, 22, 12]`, engineering shear), N/m. Symmetric
     /// positive definite.
