@@ -107,6 +107,12 @@ pub fn hinge_weights(uv: [[f64; 2]; 4]) -> Option<([f64; 4], f64)> {
     }
 }
 
+/// Scale from a material's bending stiffness `B` (N·m, the continuum `E = ½ B κ² · area`) to
+/// the stiffness handed to [`hinge_hessian`]. The hinge sum stores 3× the continuum energy of a
+/// cylinder on an equilateral mesh, and 2.6–3× (direction dependent) on the pixel mesh
+/// (measured in this module's tests), so `B / 3` makes the coarse cloth bend like the plate.
+pub const CONTINUUM_SCALE: f64 = 1.0 / 3.0;
+
 /// The constant Hessian `H = B · 3/(A0 + A1) · k kᵀ` of the hinge with rest positions `uv`
 /// (`[x0, x1, x2, x3]`, edge `(x0, x1)`, opposite nodes `x2`, `x3`; see the module docs) and
 /// bending stiffness `stiffness = B` (N·m). The energy is `E = ½ Σ_ab H[a][b] x_a·x_b`, the force

@@ -18,10 +18,20 @@ use glam::Vec3A;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
     /// The half-space `dot(normal, x) < offset` is solid; `normal` is unit length.
-    Plane { normal: Vec3A, offset: f32 },
-    Sphere { center: Vec3A, radius: f32 },
+    Plane {
+        normal: Vec3A,
+        offset: f32,
+    },
+    Sphere {
+        center: Vec3A,
+        radius: f32,
+    },
     /// A segment `a`–`b` swept by a sphere of `radius`.
-    Capsule { a: Vec3A, b: Vec3A, radius: f32 },
+    Capsule {
+        a: Vec3A,
+        b: Vec3A,
+        radius: f32,
+    },
 }
 
 /// A contact query's answer: signed distance from the surface (negative inside) and the
@@ -39,7 +49,9 @@ impl Shape {
             Shape::Plane { normal, offset } => {
                 normal.is_finite() && offset.is_finite() && (normal.length() - 1.0).abs() < 1e-3
             }
-            Shape::Sphere { center, radius } => center.is_finite() && radius.is_finite() && radius > 0.0,
+            Shape::Sphere { center, radius } => {
+                center.is_finite() && radius.is_finite() && radius > 0.0
+            }
             Shape::Capsule { a, b, radius } => {
                 a.is_finite() && b.is_finite() && radius.is_finite() && radius > 0.0
             }
@@ -71,21 +83,43 @@ impl Shape {
     /// defining points; a plane's normal is re-normalized).
     pub fn lerp(&self, to: &Shape, t: f32) -> Shape {
         match (*self, *to) {
-            (Shape::Plane { normal: n0, offset: o0 }, Shape::Plane { normal: n1, offset: o1 }) => {
-                Shape::Plane {
-                    normal: n0.lerp(n1, t).normalize_or(n1),
-                    offset: o0 + (o1 - o0) * t,
-                }
-            }
-            (Shape::Sphere { center: c0, radius: r0 }, Shape::Sphere { center: c1, radius: r1 }) => {
-                Shape::Sphere {
-                    center: c0.lerp(c1, t),
-                    radius: r0 + (r1 - r0) * t,
-                }
-            }
             (
-                Shape::Capsule { a: a0, b: b0, radius: r0 },
-                Shape::Capsule { a: a1, b: b1, radius: r1 },
+                Shape::Plane {
+                    normal: n0,
+                    offset: o0,
+                },
+                Shape::Plane {
+                    normal: n1,
+                    offset: o1,
+                },
+            ) => Shape::Plane {
+                normal: n0.lerp(n1, t).normalize_or(n1),
+                offset: o0 + (o1 - o0) * t,
+            },
+            (
+                Shape::Sphere {
+                    center: c0,
+                    radius: r0,
+                },
+                Shape::Sphere {
+                    center: c1,
+                    radius: r1,
+                },
+            ) => Shape::Sphere {
+                center: c0.lerp(c1, t),
+                radius: r0 + (r1 - r0) * t,
+            },
+            (
+                Shape::Capsule {
+                    a: a0,
+                    b: b0,
+                    radius: r0,
+                },
+                Shape::Capsule {
+                    a: a1,
+                    b: b1,
+                    radius: r1,
+                },
             ) => Shape::Capsule {
                 a: a0.lerp(a1, t),
                 b: b0.lerp(b1, t),
@@ -104,7 +138,13 @@ impl Shape {
             return Vec3A::ZERO;
         }
         let v = match (*from, *self) {
-            (Shape::Plane { normal: n0, offset: o0 }, Shape::Plane { normal, offset }) => {
+            (
+                Shape::Plane {
+                    normal: n0,
+                    offset: o0,
+                },
+                Shape::Plane { normal, offset },
+            ) => {
                 // only the normal motion of a plane is observable
                 let _ = n0;
                 normal * (offset - o0)
@@ -247,7 +287,11 @@ mod tests {
         assert!(resolve(&plane, Vec3A::ZERO, 0.01, 0.25, &mut x, &mut v));
         assert!((x.z - 0.01).abs() < 1e-7);
         assert_eq!(v.z, 0.0);
-        assert!((v.x - 0.5).abs() < 1e-6, "friction 0.25·2 = 0.5 removed: {}", v.x);
+        assert!(
+            (v.x - 0.5).abs() < 1e-6,
+            "friction 0.25·2 = 0.5 removed: {}",
+            v.x
+        );
         // high friction stops sliding entirely, never reverses it
         let mut x = Vec3A::new(0.0, 0.0, -0.1);
         let mut v = Vec3A::new(1.0, 0.0, -2.0);

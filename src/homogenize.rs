@@ -654,3 +654,97 @@ pub fn bench_cell(n: usize) -> CellDesc {
         ],
     }
 }
+
+/// Why building a blob from cell files failed; names the file.
+#[derive(Debug)]
+pub enum BuildError {
+    Cell(crate::cell::CellError),
+    Homogenize {
+        file: String,
+        error: HomogenizeError,
+    },
+    Blob(crate::blob::BlobError),
+    NoCells,
+}
+
+impl fmt::Display for BuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BuildError::Cell(e) => write!(f, "{e}"),
+            BuildError::Homogenize { file, error } => {
+                write!(f, "{file}: homogenization failed: {error}")
+            }
+            BuildError::Blob(e) => write!(f, "the blob would be invalid: {e}"),
+            BuildError::NoCells => write!(f, "no cell files given"),
+        }
+    }
+}
+
+impl std::error::Error for BuildError {}
+
+/// The blob record of a homogenized cell: the runtime's arrays in f32, the tensors in f64.
+pub fn record(
+    desc: &CellDesc,
+    mesh: &MicroMesh,
+    refine: usize,
+    h: &Homogenized,
+) -> crate::blob::CellRecord {
+    crate::blob::CellRecord {
+        name: desc.name.clone(),
+        size: desc.size,
+        cols: desc.cols as u32,
+        rows: desc.rows as u32,
+        refine: refine.max(1) as u32,
+        stiffness: h.stiffness,
+        density: h.density,
+        bending: h.bending,
+        voigt_bound: h.voigt_bound,
+        reuss_bound: h.reuss_bound,
+        materials: desc
+            .materials
+            .iter()
+            .map(|m| crate::blob::MaterialRecord {
+                c: m.c,
+                density: m.density,
+                bending: m.bending,
+            })
+            .collect(),
+        nodes: mesh
+            .nodes
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32])
+            .collect(),
+        triangles: mesh.triangles.clone(),
+        tri_material: mesh.tri_material.clone(),
+        chi: h
+            .chi
+            .iter()
+            .map(|c| [c[0][0], c[0][1], c[1][0], c[1][1], c[2][0], c[2][1]].map(|v| v as f32))
+            .collect(),
+    }
+}
+
+/// Reads each cell file, homogenizes it at `refine`, and writes one blob holding them all in
+/// order (a cell's index is its position in `paths`). `progress(cell, fraction)` reports.
+pub fn build_blob(
+    paths: &[std::path::PathBuf],
+    refine: usize,
+    progress: &mut dyn FnMut(usize, f64),
+) -> Result<Vec<u8>, BuildError> {
+    if paths.is_empty() {
+        return Err(BuildError::NoCells);
+    }
+    let mut records = Vec::with_capacity(paths.len());
+    for (i, path) in paths.iter().enumerate() {
+        let desc = crate::cell::load(path).map_err(BuildError::Cell)?;
+        let mesh = crate::cell::mesh_cell(&desc, refine);
+        let h = homogenize(&desc, &mesh, &mut |f| progress(i, f)).map_err(|error| {
+            BuildError::Homogenize {
+                file: path.display().to_string(),
+                error,
+            }
+        })?;
+        records.push(record(&desc, &mesh, refine, &h));
+    }
+    crate::blob::write(&records).map_err(BuildError::Blob)
+}

@@ -16,9 +16,22 @@
 #![cfg_attr(not(any(feature = "std", test)), no_std)]
 #![forbid(unsafe_op_in_unsafe_fn)]
 
+// The shipped static library is no_std with panic = "abort": the kernel is panic-free by
+// construction, and should a panic ever happen it stops here instead of unwinding into C.
+// `cargo test` builds with unwinding, where std's handler is used instead.
+#[cfg(all(not(feature = "std"), not(test), panic = "abort"))]
+#[panic_handler]
+fn on_panic(_: &core::panic::PanicInfo<'_>) -> ! {
+    loop {
+        core::hint::spin_loop();
+    }
+}
+#[cfg(all(not(feature = "std"), not(test), panic = "unwind"))]
+extern crate std;
+
 pub mod bending;
-pub mod collide;
 pub mod blob;
+pub mod collide;
 pub mod membrane;
 pub mod mesh;
 pub mod pcg;

@@ -16,24 +16,48 @@ pub enum MeshError {
     /// No vertices or no triangles.
     Empty,
     /// More vertices, triangles or edges than the storage holds.
-    VertexCapacity { needed: u32, capacity: u32 },
-    TriangleCapacity { needed: u32, capacity: u32 },
-    EdgeCapacity { capacity: u32 },
+    VertexCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    TriangleCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    EdgeCapacity {
+        capacity: u32,
+    },
     /// A triangle names a vertex that does not exist.
-    IndexOutOfRange { triangle: u32 },
+    IndexOutOfRange {
+        triangle: u32,
+    },
     /// A triangle uses the same vertex twice.
-    RepeatedVertex { triangle: u32 },
+    RepeatedVertex {
+        triangle: u32,
+    },
     /// A triangle has (near) zero area in material (u,v) space.
-    DegenerateUv { triangle: u32 },
+    DegenerateUv {
+        triangle: u32,
+    },
     /// A triangle has (near) zero area in its initial 3D placement.
-    Degenerate3d { triangle: u32 },
+    Degenerate3d {
+        triangle: u32,
+    },
     /// An edge is shared by more than two triangles.
-    NonManifoldEdge { a: u32, b: u32 },
+    NonManifoldEdge {
+        a: u32,
+        b: u32,
+    },
     /// A position or (u,v) coordinate is NaN or infinite.
-    NonFinite { vertex: u32 },
+    NonFinite {
+        vertex: u32,
+    },
     /// Two triangles on one edge disagree on orientation in (u,v) (the sheet folds over
     /// itself in material space).
-    FoldedUv { a: u32, b: u32 },
+    FoldedUv {
+        a: u32,
+        b: u32,
+    },
     /// A slice handed in is shorter than the counts require.
     BufferTooSmall,
 }
@@ -87,7 +111,9 @@ pub fn validate(
             .length_squared()
             .max((pc - pb).length_squared())
             .max((pa - pc).length_squared());
-        if !(cross > DEGENERATE_3D_RATIO * longest) {
+        // written so that NaN also counts as degenerate
+        if cross.partial_cmp(&(DEGENERATE_3D_RATIO * longest)) != Some(core::cmp::Ordering::Greater)
+        {
             return Err(MeshError::Degenerate3d { triangle });
         }
     }
@@ -143,9 +169,9 @@ pub fn build(
     vt_start.fill(0);
     for tri in triangles {
         for &v in tri {
-            let slot = vt_start.get_mut(v as usize + 1).ok_or(MeshError::IndexOutOfRange {
-                triangle: 0,
-            })?;
+            let slot = vt_start
+                .get_mut(v as usize + 1)
+                .ok_or(MeshError::IndexOutOfRange { triangle: 0 })?;
             *slot += 1;
         }
     }
@@ -263,7 +289,11 @@ fn opposite(tri: [u32; 3], a: u32, b: u32) -> u32 {
 
 /// The couplings of the block matrix: every edge, plus the two opposite vertices of every hinge
 /// (the bending stencil couples them although they share no edge). Returns how many were written.
-pub fn couplings(edges: &[[u32; 2]], hinges: &[[u32; 4]], out: &mut [[u32; 2]]) -> Result<usize, MeshError> {
+pub fn couplings(
+    edges: &[[u32; 2]],
+    hinges: &[[u32; 4]],
+    out: &mut [[u32; 2]],
+) -> Result<usize, MeshError> {
     let needed = edges.len() + hinges.len();
     if out.len() < needed {
         return Err(MeshError::EdgeCapacity {
@@ -367,7 +397,9 @@ mod tests {
         }
     }
 
-    fn grid_mesh(nx: usize, ny: usize) -> (Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>) {
+    type GridMesh = (Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
+
+    fn grid_mesh(nx: usize, ny: usize) -> GridMesh {
         let mut p = vec![[0.0; 3]; nx * ny];
         let mut uv = vec![[0.0; 2]; nx * ny];
         let mut t = vec![[0; 3]; 2 * (nx - 1) * (ny - 1)];
@@ -440,7 +472,13 @@ mod tests {
     #[test]
     fn non_manifold_and_capacity_errors() {
         // three triangles on edge (0,1)
-        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, -1.0, 0.0], [0.5, 0.5, 1.0]];
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 1.0, 0.0],
+            [0.5, -1.0, 0.0],
+            [0.5, 0.5, 1.0],
+        ];
         let uv = vec![[0.0, 0.0], [1.0, 0.0], [0.5, 1.0], [0.5, -1.0], [0.6, 0.4]];
         let t = vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]];
         let mut sign = vec![0.0; 3];
@@ -463,12 +501,20 @@ mod tests {
     #[test]
     fn folded_uv_is_rejected() {
         // two triangles on edge (0,1) on the same side of it in uv
-        let p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 1.0, 1.0]];
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 1.0, 0.0],
+            [0.5, 1.0, 1.0],
+        ];
         let uv = vec![[0.0, 0.0], [1.0, 0.0], [0.5, 1.0], [0.4, 0.5]];
         let t = vec![[0, 1, 2], [1, 0, 3]];
         let mut sign = vec![0.0; 2];
         validate(&p, &uv, &t, &mut sign).unwrap();
         let mut o = Owned::new(4, 2, 10);
-        assert_eq!(build(4, &t, &sign, &mut o.topo()), Err(MeshError::FoldedUv { a: 0, b: 1 }));
+        assert_eq!(
+            build(4, &t, &sign, &mut o.topo()),
+            Err(MeshError::FoldedUv { a: 0, b: 1 })
+        );
     }
 }

@@ -19,13 +19,14 @@
 
 use glam::{Mat3A, Quat, Vec3A};
 
+use crate::bending;
 use crate::blob::Blob;
 use crate::collide::{self, Collider, Shape};
+use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
 use crate::pcg::{self, Operator};
 use crate::rotation::{self, RestRing};
 use crate::sparse::{self, Pattern};
-use crate::{bending, membrane};
 
 /// Scene effects, a bit set. An effect that is off costs nothing in the step.
 pub mod effects {
@@ -71,7 +72,7 @@ impl Capacity {
 
     /// Capacity for an `n × n`-vertex grid sheet (benchmarks, tests).
     pub const fn grid(n: u32) -> Capacity {
-        let s = if n > 1 { n - 1 } else { 0 };
+        let s = n.saturating_sub(1);
         Capacity {
             vertices: n * n,
             triangles: 2 * s * s,
@@ -150,16 +151,20 @@ arrays! { cap;
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
     row_start: u32 = [cap.v() + 1; 0],
     cols: u32 = [cap.b(); 0],
-    /// Membrane stiffness `K` on the rest shape (N/m), assembled once.
+    /// Per triangle: its constant element stiffness and gradients, and where its three
+    /// vertex pairs sit in the block pattern.
+    elements: Element = [cap.t(); Element::ZERO],
+    slots: [u32; 3] = [cap.t(); [0; 3]],
+    /// Rotated membrane stiffness `K_w = Σ_e R_e K_e R_eᵀ` (N/m), re-assembled every substep.
     k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
     k_off: Mat3A = [cap.b(); Mat3A::ZERO],
-    /// `K x0`, constant: the rest term of Eq. 17.
-    k_rest: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Elastic forces of the current substep (N).
+    force: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
     q_diag: f32 = [cap.v(); 0.0],
     q_off: f32 = [cap.b(); 0.0],
     rot: Quat = [cap.v(); Quat::IDENTITY],
-    rings: RestRing = [cap.v(); RestRing::default()],
+    rings: RestRing = [cap.v(); RestRing::EMPTY],
     normals: Vec3A = [cap.v(); Vec3A::Z],
     /// Right-hand side, solution (warm start) and PCG work vectors.
     rhs: Vec3A = [cap.v(); Vec3A::ZERO],
@@ -171,6 +176,11 @@ arrays! { cap;
     tmp: Vec3A = [cap.v(); Vec3A::ZERO],
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
+    /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
+    /// which bounds Coulomb friction.
+    contact_collider: u32 = [cap.v(); mesh::NONE],
+    contact_push: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Pin index of each vertex, or `mesh::NONE`.
     pin_of: u32 = [cap.v(); mesh::NONE],
     pin_vertex: u32 = [cap.p(); 0],
@@ -283,7 +293,10 @@ pub struct Settings {
     /// PCG relative residual and iteration cap.
     pub tolerance: f32,
     pub max_iterations: u32,
-    /// Rotation extraction iterations per node per substep (warm started).
+    /// Warp with the paper's per-node rotations (Eq. 14–17) instead of per-element frames.
+    /// Kept for comparison: it is unstable for cloth hanging in 3D (see README, "Limits").
+    pub per_node_warping: bool,
+    /// Rotation extraction iterations per node per substep (warm started), per-node warping.
     pub rotation_iterations: u32,
     /// Sleep when every vertex is slower than this (m/s) for `sleep_frames` steps.
     pub sleep_velocity: f32,
@@ -308,6 +321,7 @@ impl Default for Settings {
             drag: 0.0,
             tolerance: 1e-4,
             max_iterations: 200,
+            per_node_warping: false,
             rotation_iterations: 4,
             sleep_velocity: 1e-3,
             sleep_frames: 30,
@@ -364,17 +378,32 @@ pub enum InitError {
     MemoryTooSmall,
     CapacityTooLarge,
     /// The cloth does not fit: which capacity, how much was needed.
-    VertexCapacity { needed: u32, capacity: u32 },
-    TriangleCapacity { needed: u32, capacity: u32 },
-    EdgeCapacity { capacity: u32 },
+    VertexCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    TriangleCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    EdgeCapacity {
+        capacity: u32,
+    },
     Mesh(MeshError),
     /// `materials` has a different length than `triangles`.
     MaterialCount,
     /// A triangle names a material (cell) that does not exist.
-    MaterialOutOfRange { triangle: u32, material: u32 },
+    MaterialOutOfRange {
+        triangle: u32,
+        material: u32,
+    },
     /// A material's numbers are unusable (non-finite, non-positive density, not SPD).
-    InvalidMaterial { material: u32 },
-    InvalidSetting { field: &'static str },
+    InvalidMaterial {
+        material: u32,
+    },
+    InvalidSetting {
+        field: &'static str,
+    },
     /// An internal consistency check failed (a bug if it happens; never a panic).
     Internal,
 }
@@ -393,7 +422,9 @@ impl From<MeshError> for InitError {
 pub enum StepError {
     InvalidTimeStep,
     /// A pin target is NaN or infinite.
-    NonFinitePin { vertex: u32 },
+    NonFinitePin {
+        vertex: u32,
+    },
     /// The solver broke down (indefinite or non-finite system).
     SolverBreakdown,
     /// The step produced NaN or infinite positions or velocities.
@@ -506,7 +537,12 @@ impl<'a> World<'a> {
     fn build(&mut self, cloth: &ClothDef<'_>, materials: Materials<'_>) -> Result<(), InitError> {
         let (n, nt) = (self.n, self.nt);
         let a = &mut self.a;
-        mesh::validate(cloth.positions, cloth.uvs, cloth.triangles, &mut a.tri_sign[..nt])?;
+        mesh::validate(
+            cloth.positions,
+            cloth.uvs,
+            cloth.triangles,
+            &mut a.tri_sign[..nt],
+        )?;
         // Materials: every triangle's must exist and be usable.
         for (t, &m) in cloth.materials.iter().enumerate() {
             let mat = materials.get(m).ok_or(InitError::MaterialOutOfRange {
@@ -549,13 +585,15 @@ impl<'a> World<'a> {
         self.ne = counts.edges;
         self.nh = counts.hinges;
         let nc = mesh::couplings(&a.edges[..self.ne], &a.hinges[..self.nh], a.couplings)?;
-        self.nnz = sparse::build_pattern(n, &a.couplings[..nc], a.row_start, a.cols)
-            .map_err(|_| InitError::EdgeCapacity {
-                capacity: self.capacity.edges,
+        self.nnz =
+            sparse::build_pattern(n, &a.couplings[..nc], a.row_start, a.cols).map_err(|_| {
+                InitError::EdgeCapacity {
+                    capacity: self.capacity.edges,
+                }
             })?;
 
-        // Membrane stiffness K and lumped masses, triangle by triangle (Eq. 10–11 on the coarse
-        // mesh with the cell's C^H).
+        // Element stiffness K_e = A Bᵀ C^H B (Eq. 10–11 on the coarse mesh with the cell's C^H),
+        // lumped masses, and each element's place in the block pattern.
         let pattern = Pattern {
             row_start: &a.row_start[..n + 1],
             cols: &a.cols[..self.nnz],
@@ -563,33 +601,31 @@ impl<'a> World<'a> {
         let mut total_mass = 0.0f64;
         for t in 0..nt {
             let tri = a.triangles[t];
-            let mat = materials.get(a.tri_material[t]).ok_or(InitError::Internal)?;
+            let mat = materials
+                .get(a.tri_material[t])
+                .ok_or(InitError::Internal)?;
             let uv = tri.map(|i| {
                 let r = a.rest[i as usize];
                 [r.x as f64, r.y as f64]
             });
-            let g = membrane::gradients(uv).ok_or(InitError::Mesh(MeshError::DegenerateUv {
-                triangle: t as u32,
-            }))?;
-            let ke = membrane::element_stiffness(&g, &mat.stiffness);
-            for (ai, &i) in tri.iter().enumerate() {
+            let degenerate = InitError::Mesh(MeshError::DegenerateUv { triangle: t as u32 });
+            let g = membrane::gradients(uv).ok_or(degenerate)?;
+            a.elements[t] = Element::new(uv, &mat.stiffness).ok_or(degenerate)?;
+            for &i in &tri {
                 let m = mat.density * g.area / 3.0;
                 a.mass[i as usize] += m as f32;
                 a.area[i as usize] += (g.area / 3.0) as f32;
                 total_mass += m;
-                for (bi, &j) in tri.iter().enumerate() {
-                    if i > j {
-                        continue; // the symmetric twin is added with (j, i)
-                    }
-                    let k = ke[ai][bi];
-                    let block = Mat3A::from_cols(
-                        Vec3A::new(k[0][0] as f32, k[1][0] as f32, 0.0),
-                        Vec3A::new(k[0][1] as f32, k[1][1] as f32, 0.0),
-                        Vec3A::ZERO,
-                    );
-                    sparse::add_block(&pattern, &mut a.k_diag[..n], &mut a.k_off[..self.nnz], i as usize, j as usize, block)
-                        .map_err(|_| InitError::Internal)?;
-                }
+            }
+            for (p, (ai, bi)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+                let (i, j) = (tri[ai] as usize, tri[bi] as usize);
+                let (lo, hi, flag) = if i < j {
+                    (i, j, 0)
+                } else {
+                    (j, i, membrane::TRANSPOSED)
+                };
+                let k = pattern.find(lo, hi).ok_or(InitError::Internal)?;
+                a.slots[t][p] = k as u32 | flag;
             }
         }
         self.total_mass = total_mass;
@@ -598,14 +634,34 @@ impl<'a> World<'a> {
         // stiffness of its two triangles.
         for h in 0..self.nh {
             let hinge = a.hinges[h];
-            let [t0, t1] = a.edge_tris[hinge_edge(a.edges, self.ne, hinge).ok_or(InitError::Internal)?];
-            let b0 = materials.get(a.tri_material[t0 as usize]).map(|m| m.bending).unwrap_or(0.0);
-            let b1 = materials.get(a.tri_material[t1 as usize]).map(|m| m.bending).unwrap_or(0.0);
+            let t0 = triangle_of(
+                a.vt_start,
+                a.vt,
+                a.triangles,
+                [hinge[0], hinge[1], hinge[2]],
+            )
+            .ok_or(InitError::Internal)?;
+            let t1 = triangle_of(
+                a.vt_start,
+                a.vt,
+                a.triangles,
+                [hinge[0], hinge[1], hinge[3]],
+            )
+            .ok_or(InitError::Internal)?;
+            let b0 = materials
+                .get(a.tri_material[t0])
+                .map(|m| m.bending)
+                .unwrap_or(0.0);
+            let b1 = materials
+                .get(a.tri_material[t1])
+                .map(|m| m.bending)
+                .unwrap_or(0.0);
             let uv = hinge.map(|i| {
                 let r = a.rest[i as usize];
                 [r.x as f64, r.y as f64]
             });
-            let Some(q) = bending::hinge_hessian(uv, 0.5 * (b0 + b1)) else {
+            let Some(q) = bending::hinge_hessian(uv, bending::CONTINUUM_SCALE * 0.5 * (b0 + b1))
+            else {
                 continue; // a degenerate hinge bends freely rather than blowing up
             };
             for (ai, &i) in hinge.iter().enumerate() {
@@ -613,18 +669,27 @@ impl<'a> World<'a> {
                     if i > j {
                         continue;
                     }
-                    sparse::add_scalar(&pattern, &mut a.q_diag[..n], &mut a.q_off[..self.nnz], i as usize, j as usize, q[ai][bi] as f32)
-                        .map_err(|_| InitError::Internal)?;
+                    sparse::add_scalar(
+                        &pattern,
+                        &mut a.q_diag[..n],
+                        &mut a.q_off[..self.nnz],
+                        i as usize,
+                        j as usize,
+                        q[ai][bi] as f32,
+                    )
+                    .map_err(|_| InitError::Internal)?;
                 }
             }
         }
 
-        // K x0: the constant rest term of Eq. 17.
-        sparse::mul(&a.k_diag[..n], &pattern, &a.k_off[..self.nnz], &a.rest[..n], &mut a.k_rest[..n])
-            .map_err(|_| InitError::Internal)?;
-
-        rotation::rest_rings(&a.ring_start[..n + 1], &a.ring[..2 * self.ne], &a.mass[..n], &a.rest[..n], &mut a.rings[..n])
-            .map_err(|_| InitError::Internal)?;
+        rotation::rest_rings(
+            &a.ring_start[..n + 1],
+            &a.ring[..2 * self.ne],
+            &a.mass[..n],
+            &a.rest[..n],
+            &mut a.rings[..n],
+        )
+        .map_err(|_| InitError::Internal)?;
         // Warm start the rotations from the initial placement.
         self.update_rotations(8);
         Ok(())
@@ -883,13 +948,14 @@ impl<'a> World<'a> {
             ..StepStats::default()
         };
         for s in 0..substeps {
+            let t0 = s as f32 / substeps as f32;
             let t = (s + 1) as f32 / substeps as f32;
-            match self.substep(h, t) {
-                Ok(sub) => {
+            match self.substep(h, t0, t) {
+                Ok((sub, contacts)) => {
                     stats.iterations += sub.iterations;
                     stats.residual = stats.residual.max(sub.residual);
                     stats.converged &= sub.converged;
-                    stats.contacts = sub.contacts;
+                    stats.contacts = contacts;
                 }
                 Err(e) => {
                     self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
@@ -923,7 +989,14 @@ impl<'a> World<'a> {
     fn update_rotations(&mut self, iterations: u32) {
         let n = self.n;
         let a = &mut self.a;
-        if rotation::vertex_normals(&a.triangles[..self.nt], &a.tri_sign[..self.nt], &a.x[..n], &mut a.normals[..n]).is_err() {
+        if rotation::vertex_normals(
+            &a.triangles[..self.nt],
+            &a.tri_sign[..self.nt],
+            &a.x[..n],
+            &mut a.normals[..n],
+        )
+        .is_err()
+        {
             return;
         }
         let _ = rotation::update_rotations(
@@ -941,11 +1014,12 @@ impl<'a> World<'a> {
 
     /// One linearized implicit Euler substep of length `h`; `t` ∈ (0, 1] is how far through the
     /// frame it ends (for sweeping pins and colliders).
-    fn substep(&mut self, h: f32, t: f32) -> Result<pcg::Stats, StepError> {
+    fn substep(&mut self, h: f32, t0: f32, t: f32) -> Result<(pcg::Stats, u32), StepError> {
         let n = self.n;
         let st = self.settings;
         let eff = st.effects;
         let warping = eff & effects::WARPING != 0;
+        let per_node = warping && st.per_node_warping;
         let bending_on = eff & effects::BENDING != 0;
         let damping_on = eff & effects::DAMPING != 0;
         let (alpha, beta) = if damping_on {
@@ -953,45 +1027,83 @@ impl<'a> World<'a> {
         } else {
             (0.0, 0.0)
         };
-        if warping {
+        if per_node {
+            // also refreshes the vertex normals
             self.update_rotations(st.rotation_iterations);
-        } else {
-            self.a.rot[..n].fill(Quat::IDENTITY);
+        } else if warping || eff & effects::WIND != 0 {
+            let a = &mut self.a;
+            let _ = rotation::vertex_normals(
+                &a.triangles[..self.nt],
+                &a.tri_sign[..self.nt],
+                &a.x[..n],
+                &mut a.normals[..n],
+            );
         }
         let a = &mut self.a;
         let pattern = Pattern {
             row_start: &a.row_start[..n + 1],
             cols: &a.cols[..self.nnz],
         };
-        let (x, v, rot) = (&a.x[..n], &a.v[..n], &a.rot[..n]);
+        let (x, v) = (&a.x[..n], &a.v[..n]);
 
         // --- forces, accumulated into rhs ---
+        // Membrane: corotated elements (or plain linear FEM; or, for per-node warping, the
+        // unrotated K that Eq. 17 rotates node by node).
+        membrane::assemble_corotated(
+            &a.triangles[..self.nt],
+            &a.elements[..self.nt],
+            &a.slots[..self.nt],
+            &a.rest[..n],
+            x,
+            &a.normals[..n],
+            warping && !per_node,
+            &mut a.k_diag[..n],
+            &mut a.k_off[..self.nnz],
+            &mut a.force[..n],
+        )
+        .map_err(|_| StepError::SolverBreakdown)?;
+        let rot = if per_node { Some(&a.rot[..n]) } else { None };
+        if let Some(rot) = rot {
+            membrane::node_warped_force(
+                &pattern,
+                &a.k_off[..self.nnz],
+                rot,
+                &a.rest[..n],
+                x,
+                &mut a.force[..n],
+            )
+            .map_err(|_| StepError::SolverBreakdown)?;
+        }
         let rhs = &mut a.rhs[..n];
-        // Warped elasticity, Eq. 17: f_i = -R_i (Σ_j K_ij R_iᵀ x_j - (K x0)_i).
-        warped_force(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.k_rest[..n], rot, x, rhs, warping);
-        // Per-node warping is not translation-symmetric between nodes with different R_i
-        // (ghost forces, Müller et al. 2002): internal forces must sum to zero, so the net is
-        // removed, weighted by mass. Rigid motion gives zero force before and after this.
-        let mut net = Vec3A::ZERO;
-        for f in rhs.iter() {
-            net += *f;
-        }
-        if self.total_mass > 0.0 {
-            let per_kg = net / self.total_mass as f32;
-            for (f, &m) in rhs.iter_mut().zip(&a.mass[..n]) {
-                *f -= per_kg * m;
-            }
-        }
+        rhs.copy_from_slice(&a.force[..n]);
         // Implicit and Rayleigh terms: -(β + h) K_w v  (K_w = R K Rᵀ + B Q).
         let c_kv = beta + h;
-        stiffness_apply(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.q_diag[..n], &a.q_off[..self.nnz], rot, bending_on, warping, v, &mut a.tmp[..n], &mut a.w_r[..n]);
+        stiffness_apply(
+            &pattern,
+            &a.k_diag[..n],
+            &a.k_off[..self.nnz],
+            &a.q_diag[..n],
+            &a.q_off[..self.nnz],
+            rot,
+            bending_on,
+            v,
+            &mut a.tmp[..n],
+            &mut a.w_r[..n],
+        );
         for (f, kv) in rhs.iter_mut().zip(&a.w_r[..n]) {
             *f -= *kv * c_kv;
         }
         if bending_on {
             // Bending force -B Q x (Q annihilates the flat rest shape, so no rest term).
             a.w_r[..n].fill(Vec3A::ZERO);
-            let _ = sparse::mul_scalar_add(&a.q_diag[..n], &pattern, &a.q_off[..self.nnz], 1.0, x, &mut a.w_r[..n]);
+            let _ = sparse::mul_scalar_add(
+                &a.q_diag[..n],
+                &pattern,
+                &a.q_off[..self.nnz],
+                1.0,
+                x,
+                &mut a.w_r[..n],
+            );
             for (f, q) in rhs.iter_mut().zip(&a.w_r[..n]) {
                 *f -= *q;
             }
@@ -1025,10 +1137,11 @@ impl<'a> World<'a> {
         }
         if collide_on {
             for i in 0..n {
+                a.contact_collider[i] = mesh::NONE;
                 let mut deepest = f32::INFINITY;
-                for c in &a.colliders[..self.colliders] {
+                for (k, c) in a.colliders[..self.colliders].iter().enumerate() {
                     let shape = c.previous.lerp(&c.shape, t);
-                    let before = c.previous.lerp(&c.shape, t - h / st.time_step.max(h));
+                    let before = c.previous.lerp(&c.shape, t0);
                     let prox = shape.proximity(x[i]);
                     let vs = shape.surface_velocity(&before, x[i], h);
                     let vn_rel = (v[i] - vs).dot(prox.normal);
@@ -1042,6 +1155,10 @@ impl<'a> World<'a> {
                         let dvn = target_vn - v[i].dot(nrm);
                         filter[i] = Mat3A::IDENTITY - outer(nrm, nrm);
                         dv[i] = filter[i] * dv[i] + nrm * dvn;
+                        // the push the contact supplies beyond what the forces alone would do
+                        let free_dvn = rhs[i].dot(nrm) / a.mass[i].max(f32::MIN_POSITIVE);
+                        a.contact_push[i] = nrm * (dvn - free_dvn).max(0.0);
+                        a.contact_collider[i] = k as u32;
                         constrained = true;
                     }
                 }
@@ -1057,16 +1174,18 @@ impl<'a> World<'a> {
                 constrained = true;
             }
         }
-        if !constrained {
-            // no constraints: the previous Δv is the warm start as it is
-        }
 
         // --- block-Jacobi preconditioner: inverse of the diagonal blocks of A ---
         let c_m = 1.0 + h * alpha;
         let c_k = h * beta + h * h;
         for i in 0..n {
-            let r = if warping { Mat3A::from_quat(rot[i]) } else { Mat3A::IDENTITY };
-            let mut d = r * a.k_diag[i] * r.transpose();
+            let mut d = match rot {
+                Some(rot) => {
+                    let r = Mat3A::from_quat(rot[i]);
+                    r * a.k_diag[i] * r.transpose()
+                }
+                None => a.k_diag[i],
+            };
             if bending_on {
                 d += Mat3A::from_diagonal(glam::Vec3::splat(a.q_diag[i]));
             }
@@ -1084,7 +1203,6 @@ impl<'a> World<'a> {
             rot,
             mass: &a.mass[..n],
             bending: bending_on,
-            warping,
             c_m,
             c_k,
             tmp: core::cell::RefCell::new(&mut a.tmp[..n]),
@@ -1104,10 +1222,9 @@ impl<'a> World<'a> {
             .map_err(|_| StepError::SolverBreakdown)?;
 
         // --- integrate ---
-        for i in 0..n {
-            let vi = a.v[i] + dv[i];
-            a.v[i] = vi;
-            a.x[i] += vi * h;
+        for ((x, v), d) in a.x[..n].iter_mut().zip(&mut a.v[..n]).zip(dv.iter()) {
+            *v += *d;
+            *x += *v * h;
         }
         let mut contacts = 0;
         if collide_on {
@@ -1115,14 +1232,40 @@ impl<'a> World<'a> {
                 if a.pin_of[i] != mesh::NONE && pins_on {
                     continue;
                 }
+                let mut touched = false;
+                // Coulomb friction for the contacts the solve held: the tangential velocity
+                // relative to the surface shrinks by at most μ times the normal impulse.
+                let k = a.contact_collider[i];
+                if let Some(c) = a.colliders[..self.colliders].get(k as usize) {
+                    let shape = c.previous.lerp(&c.shape, t);
+                    let before = c.previous.lerp(&c.shape, t0);
+                    let vs = shape.surface_velocity(&before, a.x[i], h);
+                    let push = a.contact_push[i];
+                    let nrm = shape.proximity(a.x[i]).normal;
+                    let rel = a.v[i] - vs;
+                    let vt = rel - nrm * rel.dot(nrm);
+                    let vt_len = vt.length();
+                    if vt_len > 0.0 {
+                        let scale = (1.0 - c.friction * push.length() / vt_len).max(0.0);
+                        a.v[i] -= vt * (1.0 - scale);
+                    }
+                    touched = true;
+                }
+                // Projection: nothing ends the substep deeper than `thickness`.
                 for c in &a.colliders[..self.colliders] {
                     let shape = c.previous.lerp(&c.shape, t);
-                    let before = c.previous.lerp(&c.shape, t - h / st.time_step.max(h));
+                    let before = c.previous.lerp(&c.shape, t0);
                     let vs = shape.surface_velocity(&before, a.x[i], h);
-                    if collide::resolve(&shape, vs, c.thickness, c.friction, &mut a.x[i], &mut a.v[i]) {
-                        contacts += 1;
-                    }
+                    touched |= collide::resolve(
+                        &shape,
+                        vs,
+                        c.thickness,
+                        c.friction,
+                        &mut a.x[i],
+                        &mut a.v[i],
+                    );
                 }
+                contacts += touched as u32;
             }
         }
         if pins_on {
@@ -1134,92 +1277,75 @@ impl<'a> World<'a> {
         if !a.x[..n].iter().chain(&a.v[..n]).all(|p| p.is_finite()) {
             return Err(StepError::NonFiniteState);
         }
-        let _ = contacts;
-        Ok(pcg::Stats {
-            iterations: stats.iterations,
-            residual: stats.residual,
-            converged: stats.converged,
-        })
-        .map(|s| {
-            self.last.contacts = contacts;
-            s
-        })
+        Ok((stats, contacts))
     }
 
-    /// The elastic force of Eq. 17 on the current state, for tests and diagnostics (N).
+    /// The elastic forces (N) on the current state, exactly as the next substep computes
+    /// them; for tests and diagnostics. Returns false when `out` is too short.
     pub fn elastic_forces(&mut self, out: &mut [Vec3A]) -> bool {
         let n = self.n;
         if out.len() < n {
             return false;
         }
         let warping = self.settings.effects & effects::WARPING != 0;
-        if warping {
-            self.update_rotations(16);
+        let per_node = warping && self.settings.per_node_warping;
+        self.update_rotations(16);
+        let a = &mut self.a;
+        let ok = membrane::assemble_corotated(
+            &a.triangles[..self.nt],
+            &a.elements[..self.nt],
+            &a.slots[..self.nt],
+            &a.rest[..n],
+            &a.x[..n],
+            &a.normals[..n],
+            warping && !per_node,
+            &mut a.k_diag[..n],
+            &mut a.k_off[..self.nnz],
+            &mut out[..n],
+        )
+        .is_ok();
+        if ok && per_node {
+            let pattern = Pattern {
+                row_start: &a.row_start[..n + 1],
+                cols: &a.cols[..self.nnz],
+            };
+            return membrane::node_warped_force(
+                &pattern,
+                &a.k_off[..self.nnz],
+                &a.rot[..n],
+                &a.rest[..n],
+                &a.x[..n],
+                &mut out[..n],
+            )
+            .is_ok();
         }
-        let a = &self.a;
-        let pattern = Pattern {
-            row_start: &a.row_start[..n + 1],
-            cols: &a.cols[..self.nnz],
-        };
-        warped_force(&pattern, &a.k_diag[..n], &a.k_off[..self.nnz], &a.k_rest[..n], &a.rot[..n], &a.x[..n], &mut out[..n], warping);
-        true
+        ok
     }
 }
 
-/// The index of the edge of `hinge` (its first two vertices) in the sorted edge list.
-fn hinge_edge(edges: &[[u32; 2]], ne: usize, hinge: [u32; 4]) -> Option<usize> {
-    let key = [hinge[0].min(hinge[1]), hinge[0].max(hinge[1])];
-    edges[..ne].binary_search(&key).ok()
+/// The triangle whose corners are exactly `corners` (in any order), found through the
+/// incidence list of the first corner.
+fn triangle_of(
+    vt_start: &[u32],
+    vt: &[u32],
+    triangles: &[[u32; 3]],
+    corners: [u32; 3],
+) -> Option<usize> {
+    let v = corners[0] as usize;
+    let range = (*vt_start.get(v)? as usize)..(*vt_start.get(v + 1)? as usize);
+    vt.get(range)?.iter().map(|&t| t as usize).find(|&t| {
+        triangles
+            .get(t)
+            .is_some_and(|tri| corners.iter().all(|c| tri.contains(c)))
+    })
 }
 
 fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
     Mat3A::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
-/// Eq. 17 with the rotations of the nodes: `out_i = -R_i (Σ_j K_ij R_iᵀ x_j - (K x0)_i)`.
-/// Without warping, plain linear elasticity `-(K x - K x0)`.
-#[allow(clippy::too_many_arguments)]
-fn warped_force(
-    p: &Pattern<'_>,
-    k_diag: &[Mat3A],
-    k_off: &[Mat3A],
-    k_rest: &[Vec3A],
-    rot: &[Quat],
-    x: &[Vec3A],
-    out: &mut [Vec3A],
-    warping: bool,
-) {
-    let n = x.len();
-    // out_i accumulates Σ_j K_ij R_iᵀ x_j in node i's rest frame.
-    for i in 0..n {
-        let ri = rot[i];
-        let xi = if warping { ri.inverse() * x[i] } else { x[i] };
-        out[i] = k_diag[i] * xi;
-    }
-    for i in 0..n {
-        let (s, e) = (p.row_start[i] as usize, p.row_start[i + 1] as usize);
-        let ri_t = rot[i].inverse();
-        let mut acc = Vec3A::ZERO;
-        for k in s..e {
-            let j = p.cols[k] as usize;
-            let kij = k_off[k];
-            if warping {
-                acc += kij * (ri_t * x[j]);
-                out[j] += kij.transpose() * (rot[j].inverse() * x[i]);
-            } else {
-                acc += kij * x[j];
-                out[j] += kij.transpose() * x[i];
-            }
-        }
-        out[i] += acc;
-    }
-    for i in 0..n {
-        let local = out[i] - k_rest[i];
-        out[i] = if warping { -(rot[i] * local) } else { -local };
-    }
-}
-
-/// `y = K_w x = R K Rᵀ x (+ B Q x)`; `tmp` holds `Rᵀ x`.
+/// `y = K_w x (+ B Q x)`: the assembled corotated stiffness, or for per-node warping
+/// `R K Rᵀ x` on the unrotated K (symmetric, so CG applies); `tmp` holds `Rᵀ x`.
 #[allow(clippy::too_many_arguments)]
 fn stiffness_apply(
     p: &Pattern<'_>,
@@ -1227,14 +1353,13 @@ fn stiffness_apply(
     k_off: &[Mat3A],
     q_diag: &[f32],
     q_off: &[f32],
-    rot: &[Quat],
+    rot: Option<&[Quat]>,
     bending: bool,
-    warping: bool,
     x: &[Vec3A],
     tmp: &mut [Vec3A],
     y: &mut [Vec3A],
 ) {
-    if warping {
+    if let Some(rot) = rot {
         for ((t, &xi), r) in tmp.iter_mut().zip(x).zip(rot) {
             *t = r.inverse() * xi;
         }
@@ -1257,10 +1382,9 @@ struct SystemOperator<'s, 't> {
     k_off: &'s [Mat3A],
     q_diag: &'s [f32],
     q_off: &'s [f32],
-    rot: &'s [Quat],
+    rot: Option<&'s [Quat]>,
     mass: &'s [f32],
     bending: bool,
-    warping: bool,
     c_m: f32,
     c_k: f32,
     tmp: core::cell::RefCell<&'t mut [Vec3A]>,
@@ -1271,7 +1395,18 @@ impl Operator for SystemOperator<'_, '_> {
         let Ok(mut tmp) = self.tmp.try_borrow_mut() else {
             return;
         };
-        stiffness_apply(self.pattern, self.k_diag, self.k_off, self.q_diag, self.q_off, self.rot, self.bending, self.warping, x, &mut tmp, y);
+        stiffness_apply(
+            self.pattern,
+            self.k_diag,
+            self.k_off,
+            self.q_diag,
+            self.q_off,
+            self.rot,
+            self.bending,
+            x,
+            &mut tmp,
+            y,
+        );
         for ((yi, &xi), &m) in y.iter_mut().zip(x).zip(self.mass) {
             *yi = *yi * self.c_k + xi * (self.c_m * m);
         }

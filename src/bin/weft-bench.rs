@@ -81,12 +81,20 @@ struct Run {
     world_bytes: usize,
 }
 
-fn run(blob: &Blob<'_>, grid: u32, steps: u32, mask: u32, tolerance: f32, substeps: u32) -> Result<Run, String> {
+fn run(
+    blob: &Blob<'_>,
+    grid: u32,
+    steps: u32,
+    mask: u32,
+    tolerance: f32,
+    substeps: u32,
+) -> Result<Run, String> {
     let n = grid as usize;
     let mut positions = vec![[0.0f32; 3]; n * n];
     let mut uvs = vec![[0.0f32; 2]; n * n];
     let mut triangles = vec![[0u32; 3]; 2 * (n - 1) * (n - 1)];
-    weft::mesh::grid(n, n, 1.0, 1.0, &mut positions, &mut uvs, &mut triangles).map_err(|e| format!("{e:?}"))?;
+    weft::mesh::grid(n, n, 1.0, 1.0, &mut positions, &mut uvs, &mut triangles)
+        .map_err(|e| format!("{e:?}"))?;
     // hang in the x–z plane
     for p in &mut positions {
         *p = [p[0], 0.0, p[1]];
@@ -110,10 +118,13 @@ fn run(blob: &Blob<'_>, grid: u32, steps: u32, mask: u32, tolerance: f32, subste
         triangles: &triangles,
         materials: &materials,
     };
-    let mut world = World::new(&mut mem, cap, &def, Materials::Blob(blob), settings).map_err(|e| format!("init: {e:?}"))?;
+    let mut world = World::new(&mut mem, cap, &def, Materials::Blob(blob), settings)
+        .map_err(|e| format!("init: {e:?}"))?;
     let top = (n - 1) * n;
     for corner in [top, top + n - 1] {
-        world.set_pin(corner as u32, positions[corner]).map_err(|e| format!("{e:?}"))?;
+        world
+            .set_pin(corner as u32, positions[corner])
+            .map_err(|e| format!("{e:?}"))?;
     }
     world
         .add_collider(Collider::new(
@@ -160,21 +171,52 @@ fn real_main(args: &Args) -> Result<(), String> {
     if args.grid < 2 {
         return Err("--grid must be at least 2".into());
     }
-    let bytes = weft::homogenize::build_blob(&[args.cell.clone()], 1).map_err(|e| e.to_string())?;
-    let aligned = weft::blob::AlignedBytes::from_bytes(&bytes);
+    let bytes = weft::homogenize::build_blob(std::slice::from_ref(&args.cell), 1, &mut |_, _| {})
+        .map_err(|e| e.to_string())?;
+    let aligned = weft::blob::AlignedBytes::copy_from(&bytes);
     let blob = Blob::parse(&aligned).map_err(|e| format!("blob: {e}"))?;
     let mask = parse_effects(&args.effects)?;
     if args.effects_table {
-        let all = run(&blob, args.grid, args.steps, mask, args.tolerance, args.substeps)?;
-        let none = run(&blob, args.grid, args.steps, 0, args.tolerance, args.substeps)?;
-        println!("grid {0}×{0}, {1} steps, median µs per step (ratios from the same run)", args.grid, args.steps);
-        println!("{:<22} {:>10} {:>10} {:>8}", "effects", "µs/step", "vs all", "CG it");
-        println!("{:<22} {:>10.1} {:>10.3} {:>8.1}", "all", all.us_median, 1.0, all.cg_mean);
+        let all = run(
+            &blob,
+            args.grid,
+            args.steps,
+            mask,
+            args.tolerance,
+            args.substeps,
+        )?;
+        let none = run(
+            &blob,
+            args.grid,
+            args.steps,
+            0,
+            args.tolerance,
+            args.substeps,
+        )?;
+        println!(
+            "grid {0}×{0}, {1} steps, median µs per step (ratios from the same run)",
+            args.grid, args.steps
+        );
+        println!(
+            "{:<22} {:>10} {:>10} {:>8}",
+            "effects", "µs/step", "vs all", "CG it"
+        );
+        println!(
+            "{:<22} {:>10.1} {:>10.3} {:>8.1}",
+            "all", all.us_median, 1.0, all.cg_mean
+        );
         for (name, bit) in NAMES {
             if mask & bit == 0 {
                 continue;
             }
-            let r = run(&blob, args.grid, args.steps, mask & !bit, args.tolerance, args.substeps)?;
+            let r = run(
+                &blob,
+                args.grid,
+                args.steps,
+                mask & !bit,
+                args.tolerance,
+                args.substeps,
+            )?;
             println!(
                 "{:<22} {:>10.1} {:>10.3} {:>8.1}",
                 format!("all but {name}"),
@@ -183,10 +225,23 @@ fn real_main(args: &Args) -> Result<(), String> {
                 r.cg_mean
             );
         }
-        println!("{:<22} {:>10.1} {:>10.3} {:>8.1}", "none", none.us_median, none.us_median / all.us_median, none.cg_mean);
+        println!(
+            "{:<22} {:>10.1} {:>10.3} {:>8.1}",
+            "none",
+            none.us_median,
+            none.us_median / all.us_median,
+            none.cg_mean
+        );
         return Ok(());
     }
-    let r = run(&blob, args.grid, args.steps, mask, args.tolerance, args.substeps)?;
+    let r = run(
+        &blob,
+        args.grid,
+        args.steps,
+        mask,
+        args.tolerance,
+        args.substeps,
+    )?;
     if args.json {
         println!(
             "{}",
@@ -209,9 +264,16 @@ fn real_main(args: &Args) -> Result<(), String> {
         println!("effects          {}", args.effects);
         println!("µs/step median   {:.1}", r.us_median);
         println!("µs/step max      {:.1}", r.us_max);
-        println!("CG iterations    {:.1} per step (tolerance {})", r.cg_mean, args.tolerance);
+        println!(
+            "CG iterations    {:.1} per step (tolerance {})",
+            r.cg_mean, args.tolerance
+        );
         println!("converged        {:.0}% of steps", r.converged * 100.0);
-        println!("world memory     {} bytes ({:.2} MB)", r.world_bytes, r.world_bytes as f64 / 1e6);
+        println!(
+            "world memory     {} bytes ({:.2} MB)",
+            r.world_bytes,
+            r.world_bytes as f64 / 1e6
+        );
     }
     Ok(())
 }

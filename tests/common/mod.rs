@@ -20,7 +20,16 @@ impl Sheet {
         let mut positions = vec![[0.0; 3]; nx * ny];
         let mut uvs = vec![[0.0; 2]; nx * ny];
         let mut triangles = vec![[0; 3]; 2 * (nx - 1) * (ny - 1)];
-        mesh::grid(nx, ny, width, height, &mut positions, &mut uvs, &mut triangles).unwrap();
+        mesh::grid(
+            nx,
+            ny,
+            width,
+            height,
+            &mut positions,
+            &mut uvs,
+            &mut triangles,
+        )
+        .unwrap();
         let materials = vec![0; triangles.len()];
         Sheet {
             positions,
@@ -92,8 +101,20 @@ pub fn settings_quiet() -> Settings {
     }
 }
 
-pub fn world<'a>(mem: &'a mut [u8], sheet: &Sheet, mats: &'a [Material], settings: Settings) -> World<'a> {
-    World::new(mem, sheet.capacity(), &sheet.def(), Materials::Table(mats), settings).unwrap()
+pub fn world<'a>(
+    mem: &'a mut [u8],
+    sheet: &Sheet,
+    mats: &'a [Material],
+    settings: Settings,
+) -> World<'a> {
+    World::new(
+        mem,
+        sheet.capacity(),
+        &sheet.def(),
+        Materials::Table(mats),
+        settings,
+    )
+    .unwrap()
 }
 
 pub fn kinetic_energy(w: &World<'_>) -> f64 {

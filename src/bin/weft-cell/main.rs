@@ -1,4 +1,4 @@
-//! weft-cell: the offline half of weft. Reads (and, with `build`, will write) cell blobs.
+//! weft-cell: the offline half of weft. Homogenizes cell descriptions into blobs, and reads them.
 //!
 //! Every subcommand returns `Result<(), String>`; the message goes to stderr and the exit status
 //! is non-zero, so the tool composes in asset pipelines.
@@ -24,6 +24,18 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Homogenize cell descriptions (TOML) and write them into one blob, in order.
+    Build {
+        /// Cell descriptions; a cell's index in the blob is its position here.
+        #[arg(required = true)]
+        cells: Vec<PathBuf>,
+        /// Output blob (LIB.weft).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Divide each pixel into K×K squares of the same material.
+        #[arg(long, default_value_t = 1)]
+        refine: usize,
+    },
     /// Print the cells of a blob: homogenized stiffness, bounds, mesh sizes.
     Inspect {
         /// The cell blob (LIB.weft).
@@ -44,6 +56,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
+        Command::Build { cells, out, refine } => build(&cells, &out, refine),
         Command::Inspect { blob, json } => inspect::run(&blob, json),
         Command::Preview { blob, out } => preview::run(&blob, &out),
     };
@@ -54,4 +67,41 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `build`: homogenize every cell, then write the blob (nothing is written on any error).
+fn build(cells: &[PathBuf], out: &std::path::Path, refine: usize) -> Result<(), String> {
+    use std::io::Write;
+    if refine == 0 || refine > 64 {
+        return Err(format!("--refine must be between 1 and 64, got {refine}"));
+    }
+    let started = std::time::Instant::now();
+    let mut last = usize::MAX;
+    let mut report = |cell: usize, fraction: f64| {
+        // one line per cell, refreshed in place on a terminal
+        let name = cells
+            .get(cell)
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        if cell != last && last != usize::MAX {
+            eprintln!();
+        }
+        last = cell;
+        eprint!("\rhomogenizing {name}: {:3.0}%", fraction * 100.0);
+        let _ = std::io::stderr().flush();
+    };
+    let bytes = weft::homogenize::build_blob(cells, refine, &mut report).map_err(|e| {
+        eprintln!();
+        e.to_string()
+    })?;
+    eprintln!();
+    std::fs::write(out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
+    eprintln!(
+        "wrote {} ({} cells, {} bytes) in {:.0} ms",
+        out.display(),
+        cells.len(),
+        bytes.len(),
+        started.elapsed().as_secs_f64() * 1e3
+    );
+    Ok(())
 }
