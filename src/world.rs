@@ -730,6 +730,15 @@ impl<'a> World<'a> {
     pub fn triangle_materials(&self) -> &[u32] {
         &self.a.tri_material[..self.nt]
     }
+    /// Triangles incident to vertex `v` (empty for an out-of-range index).
+    pub fn incident_triangles(&self, v: usize) -> &[u32] {
+        let a = &self.a;
+        match (a.vt_start.get(v), a.vt_start.get(v + 1)) {
+            (Some(&s), Some(&e)) if v < self.n => a.vt.get(s as usize..e as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
+    /// Per-vertex rotations of the per-node warping mode (identity otherwise).
     pub fn rotations(&self) -> &[Quat] {
         &self.a.rot[..self.n]
     }
