@@ -149,9 +149,9 @@ impl Filter for Blocks<'_> {
 /// `a · b` in `f64`; the three products are exact, only the two additions round.
 #[inline(always)]
 fn dot64(a: Vec3A, b: Vec3A) -> f64 {
-    f64::from(a.x) * f64::from(b.x)
-        + f64::from(a.y) * f64::from(b.y)
-        + f64::from(a.z) * f64::from(b.z)
+    // Per-vertex products in f32 (3 terms, one rounding), the long sum over vertices in f64:
+    // the sum is where cancellation and order effects build up.
+    f64::from(a.dot(b))
 }
 
 #[inline]

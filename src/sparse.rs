@@ -260,7 +260,8 @@ pub fn build_pattern(
 /// `mᵀ v` without materializing more than a register transpose.
 #[inline(always)]
 fn tmul(m: &Mat3A, v: Vec3A) -> Vec3A {
-    m.transpose() * v
+    // (Mᵀ v)_k = column k · v
+    Vec3A::new(m.x_axis.dot(v), m.y_axis.dot(v), m.z_axis.dot(v))
 }
 
 /// Checks the lengths shared by [`mul`] and [`mul_scalar_add`] and returns `nnz`.

@@ -1184,38 +1184,9 @@ impl<'a> World<'a> {
             }
         }
 
-        // --- block-Jacobi preconditioner: inverse of the diagonal blocks of A ---
+        // --- the system matrix A = c_m M + c_k K_w and its block-Jacobi preconditioner ---
         let c_m = 1.0 + h * alpha;
         let c_k = h * beta + h * h;
-        for i in 0..n {
-            let mut d = match rot {
-                Some(rot) => {
-                    let r = Mat3A::from_quat(rot[i]);
-                    r * a.k_diag[i] * r.transpose()
-                }
-                None => a.k_diag[i],
-            };
-            if bending_on {
-                d += Mat3A::from_diagonal(glam::Vec3::splat(a.q_diag[i]));
-            }
-            let block = Mat3A::from_diagonal(glam::Vec3::splat(c_m * a.mass[i])) + d * c_k;
-            a.precond[i] = pcg::invert_block(block);
-        }
-
-        // --- solve ---
-        let op = SystemOperator {
-            pattern: &pattern,
-            k_diag: &a.k_diag[..n],
-            k_off: &a.k_off[..self.nnz],
-            q_diag: &a.q_diag[..n],
-            q_off: &a.q_off[..self.nnz],
-            rot,
-            mass: &a.mass[..n],
-            bending: bending_on,
-            c_m,
-            c_k,
-            tmp: core::cell::RefCell::new(&mut a.tmp[..n]),
-        };
         let settings = pcg::Settings {
             tolerance: st.tolerance,
             max_iterations: st.max_iterations,
@@ -1227,8 +1198,55 @@ impl<'a> World<'a> {
             s: &mut a.w_s[..n],
         };
         let filter_arg = if constrained { Some(&filter[..]) } else { None };
-        let stats = pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
-            .map_err(|_| StepError::SolverBreakdown)?;
+        let stats = match rot {
+            None => {
+                // K_w was assembled this substep anyway: fold bending and mass into the same
+                // blocks, so a CG iteration is one block-sparse product.
+                for (k, q) in a.k_off[..self.nnz].iter_mut().zip(&a.q_off[..self.nnz]) {
+                    let b = if bending_on { *q } else { 0.0 };
+                    *k = (*k + Mat3A::from_diagonal(glam::Vec3::splat(b))) * c_k;
+                }
+                for i in 0..n {
+                    let b = if bending_on { a.q_diag[i] } else { 0.0 };
+                    let d = &mut a.k_diag[i];
+                    *d = *d * c_k
+                        + Mat3A::from_diagonal(glam::Vec3::splat(b * c_k + c_m * a.mass[i]));
+                    a.precond[i] = pcg::invert_block(*d);
+                }
+                let op = sparse::BlockMatrix {
+                    diag: &a.k_diag[..n],
+                    pattern,
+                    off: &a.k_off[..self.nnz],
+                };
+                pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
+            }
+            Some(rot) => {
+                for i in 0..n {
+                    let r = Mat3A::from_quat(rot[i]);
+                    let mut d = r * a.k_diag[i] * r.transpose();
+                    if bending_on {
+                        d += Mat3A::from_diagonal(glam::Vec3::splat(a.q_diag[i]));
+                    }
+                    let block = Mat3A::from_diagonal(glam::Vec3::splat(c_m * a.mass[i])) + d * c_k;
+                    a.precond[i] = pcg::invert_block(block);
+                }
+                let op = SystemOperator {
+                    pattern: &pattern,
+                    k_diag: &a.k_diag[..n],
+                    k_off: &a.k_off[..self.nnz],
+                    q_diag: &a.q_diag[..n],
+                    q_off: &a.q_off[..self.nnz],
+                    rot: Some(rot),
+                    mass: &a.mass[..n],
+                    bending: bending_on,
+                    c_m,
+                    c_k,
+                    tmp: core::cell::RefCell::new(&mut a.tmp[..n]),
+                };
+                pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
+            }
+        }
+        .map_err(|_| StepError::SolverBreakdown)?;
 
         // --- integrate ---
         for ((x, v), d) in a.x[..n].iter_mut().zip(&mut a.v[..n]).zip(dv.iter()) {
