@@ -1221,14 +1221,14 @@ impl<'a> World<'a> {
                 pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
             }
             Some(rot) => {
-                for i in 0..n {
-                    let r = Mat3A::from_quat(rot[i]);
+                for (i, (p, q)) in a.precond[..n].iter_mut().zip(rot).enumerate() {
+                    let r = Mat3A::from_quat(*q);
                     let mut d = r * a.k_diag[i] * r.transpose();
                     if bending_on {
                         d += Mat3A::from_diagonal(glam::Vec3::splat(a.q_diag[i]));
                     }
                     let block = Mat3A::from_diagonal(glam::Vec3::splat(c_m * a.mass[i])) + d * c_k;
-                    a.precond[i] = pcg::invert_block(block);
+                    *p = pcg::invert_block(block);
                 }
                 let op = SystemOperator {
                     pattern: &pattern,
