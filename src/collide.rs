@@ -32,6 +32,12 @@ pub enum Shape {
         b: Vec3A,
         radius: f32,
     },
+    /// A hollow sphere: the cloth is kept *inside* `radius` (everything outside is solid),
+    /// e.g. a container, or a shrinking sphere that crumples a cloth into a ball.
+    Shell {
+        center: Vec3A,
+        radius: f32,
+    },
 }
 
 /// A contact query's answer: signed distance from the surface (negative inside) and the
@@ -55,6 +61,9 @@ impl Shape {
             Shape::Capsule { a, b, radius } => {
                 a.is_finite() && b.is_finite() && radius.is_finite() && radius > 0.0
             }
+            Shape::Shell { center, radius } => {
+                center.is_finite() && radius.is_finite() && radius > 0.0
+            }
         }
     }
 
@@ -75,6 +84,13 @@ impl Shape {
                     0.0
                 };
                 sphere_proximity(a + ab * t, radius, p)
+            }
+            Shape::Shell { center, radius } => {
+                let inside = sphere_proximity(center, radius, p);
+                Proximity {
+                    distance: -inside.distance,
+                    normal: -inside.normal,
+                }
             }
         }
     }
@@ -150,6 +166,19 @@ impl Shape {
                 normal * (offset - o0)
             }
             (Shape::Sphere { center: c0, .. }, Shape::Sphere { center, .. }) => center - c0,
+            // a shrinking or growing shell moves its surface along the radius
+            (
+                Shape::Shell {
+                    center: c0,
+                    radius: r0,
+                },
+                Shape::Shell { center, radius },
+            ) => {
+                let d = p - center;
+                let len = d.length();
+                let n = if len > 0.0 { d / len } else { Vec3A::Z };
+                (center - c0) + n * (radius - r0)
+            }
             (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
                 let ab = b - a;
                 let len2 = ab.length_squared();

@@ -297,13 +297,31 @@ pub struct Element {
     pub k: [f32; 21],
     /// `[dN0/du, dN0/dv, dN1/du, dN1/dv, dN2/du, dN2/dv]` (1/m).
     pub grad: [f32; 6],
+    /// The material's `C` (N/m) as `[C11, C22, C33, C12, C13, C23]`, for the stress of the
+    /// geometric stiffness.
+    pub c: [f32; 6],
+    /// Rest area (m²).
+    pub area: f32,
 }
 
 impl Element {
     pub const ZERO: Element = Element {
         k: [0.0; 21],
         grad: [0.0; 6],
+        c: [0.0; 6],
+        area: 0.0,
     };
+
+    /// `σ = C e` (N/m) for a strain `e = [e11, e22, 2 e12]`.
+    #[inline]
+    pub fn stress(&self, e: [f32; 3]) -> [f32; 3] {
+        let [c11, c22, c33, c12, c13, c23] = self.c;
+        [
+            c11 * e[0] + c12 * e[1] + c13 * e[2],
+            c12 * e[0] + c22 * e[1] + c23 * e[2],
+            c13 * e[0] + c23 * e[1] + c33 * e[2],
+        ]
+    }
 
     /// The element of the triangle with rest corners `uv` (m) and stiffness `c` (N/m).
     pub fn new(uv: [[f64; 2]; 3], c: &Voigt) -> Option<Element> {
@@ -320,7 +338,13 @@ impl Element {
             grad[2 * a] = g.grad[a][0] as f32;
             grad[2 * a + 1] = g.grad[a][1] as f32;
         }
-        Some(Element { k, grad })
+        let c = [c[0][0], c[1][1], c[2][2], c[0][1], c[0][2], c[1][2]].map(|v| v as f32);
+        Some(Element {
+            k,
+            grad,
+            c,
+            area: g.area as f32,
+        })
     }
 
     /// The 2×2 block `K_ab`.
@@ -398,7 +422,7 @@ pub fn assemble_corotated(
     diag: &mut [Mat3A],
     off: &mut [Mat3A],
     force: &mut [Vec3A],
-) -> Result<(), AssemblyError> {
+) -> Result<f64, AssemblyError> {
     let n = x.len();
     if elements.len() != triangles.len()
         || slots.len() != triangles.len()
@@ -409,6 +433,7 @@ pub fn assemble_corotated(
     {
         return Err(AssemblyError::LengthMismatch);
     }
+    let mut energy = 0.0f64;
     diag.fill(Mat3A::ZERO);
     off.fill(Mat3A::ZERO);
     force.fill(Vec3A::ZERO);
@@ -417,28 +442,35 @@ pub fn assemble_corotated(
         if idx.iter().any(|&i| i >= n) {
             return Err(AssemblyError::LengthMismatch);
         }
-        let xs = idx.map(|i| x[i]);
-        let (r0, r1) = if warping {
-            let fallback = normals[idx[0]] + normals[idx[1]] + normals[idx[2]];
-            corotated_frame(&e.grad, xs, fallback)
-        } else {
-            (Vec3A::X, Vec3A::Y)
-        };
-        // local in-plane displacement of each corner, relative to corner 0 (f32-friendly)
-        let d: [[f32; 2]; 3] = core::array::from_fn(|a| {
-            let dx = xs[a] - xs[0];
-            let dr = rest[idx[a]] - rest[idx[0]];
-            [r0.dot(dx) - dr.x, r1.dot(dx) - dr.y]
-        });
-        for a in 0..3 {
-            let mut s = [0.0f32; 2];
-            for (b, db) in d.iter().enumerate() {
-                let k = e.block(a, b);
-                s[0] += k[0][0] * db[0] + k[0][1] * db[1];
-                s[1] += k[1][0] * db[0] + k[1][1] * db[1];
-            }
+        let (r0, r1, d) = local_displacement(e, idx, rest, x, normals, warping);
+        for (a, da) in d.iter().enumerate() {
+            let s = local_force(e, &d, a);
             force[idx[a]] -= r0 * s[0] + r1 * s[1];
+            energy += 0.5 * f64::from(s[0] * da[0] + s[1] * da[1]);
         }
+        // Geometric (initial-stress) stiffness `A ∇N_aᵀ σ⁺ ∇N_b I3`, tension only. A taut
+        // membrane resists sideways motion only through the turning of its frames, which the
+        // rotated K leaves out; without this term that resistance is integrated explicitly and
+        // a taut cloth goes unstable once `h > h_e / sqrt(T/ρ)` (a twisted strip at 60 Hz).
+        // Keeping only the tensile part σ⁺ keeps the matrix positive semidefinite for CG.
+        let geo = if warping {
+            let g = &e.grad;
+            let mut strain = [0.0f32; 3];
+            for (a, da) in d.iter().enumerate() {
+                let (gu, gv) = (g[2 * a], g[2 * a + 1]);
+                strain[0] += gu * da[0];
+                strain[1] += gv * da[1];
+                strain[2] += gv * da[0] + gu * da[1];
+            }
+            let s = tension(e.stress(strain));
+            let k = |a: usize, b: usize| {
+                let (ua, va, ub, vb) = (g[2 * a], g[2 * a + 1], g[2 * b], g[2 * b + 1]);
+                e.area * (ua * (s[0] * ub + s[2] * vb) + va * (s[2] * ub + s[1] * vb))
+            };
+            [k(0, 0), k(1, 1), k(2, 2), k(0, 1), k(0, 2), k(1, 2)]
+        } else {
+            [0.0; 6]
+        };
         // R K_ab Rᵀ = [r0 r1] K_ab [r0 r1]ᵀ
         let rotate = |k: [[f32; 2]; 2]| {
             let u0 = r0 * k[0][0] + r1 * k[0][1];
@@ -450,11 +482,11 @@ pub fn assemble_corotated(
             )
         };
         for a in 0..3 {
-            diag[idx[a]] += rotate(e.block(a, a));
+            diag[idx[a]] += rotate(e.block(a, a)) + Mat3A::from_diagonal(glam::Vec3::splat(geo[a]));
         }
         for (p, (a, b)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
             let s = slot[p];
-            let m = rotate(e.block(a, b));
+            let m = rotate(e.block(a, b)) + Mat3A::from_diagonal(glam::Vec3::splat(geo[3 + p]));
             let block = off
                 .get_mut((s & !TRANSPOSED) as usize)
                 .ok_or(AssemblyError::MissingBlock)?;
@@ -465,7 +497,96 @@ pub fn assemble_corotated(
             };
         }
     }
-    Ok(())
+    Ok(energy)
+}
+
+/// A triangle's corotated frame `(r0, r1)` and the in-plane displacement of its corners in
+/// that frame, relative to corner 0 (differences keep f32 cancellation small).
+#[inline]
+fn local_displacement(
+    e: &Element,
+    idx: [usize; 3],
+    rest: &[Vec3A],
+    x: &[Vec3A],
+    normals: &[Vec3A],
+    warping: bool,
+) -> (Vec3A, Vec3A, [[f32; 2]; 3]) {
+    let xs = idx.map(|i| x[i]);
+    let (r0, r1) = if warping {
+        let fallback = normals[idx[0]] + normals[idx[1]] + normals[idx[2]];
+        corotated_frame(&e.grad, xs, fallback)
+    } else {
+        (Vec3A::X, Vec3A::Y)
+    };
+    let d = core::array::from_fn(|a| {
+        let dx = xs[a] - xs[0];
+        let dr = rest[idx[a]] - rest[idx[0]];
+        [r0.dot(dx) - dr.x, r1.dot(dx) - dr.y]
+    });
+    (r0, r1, d)
+}
+
+/// `s_a = Σ_b K_ab d_b`: the local (frame) force of corner `a`, with the opposite sign.
+#[inline]
+fn local_force(e: &Element, d: &[[f32; 2]; 3], a: usize) -> [f32; 2] {
+    let mut s = [0.0f32; 2];
+    for (b, db) in d.iter().enumerate() {
+        let k = e.block(a, b);
+        s[0] += k[0][0] * db[0] + k[0][1] * db[1];
+        s[1] += k[1][0] * db[0] + k[1][1] * db[1];
+    }
+    s
+}
+
+/// The corotated elastic energy `Σ_e ½ dᵀ K_e d` (J) of the configuration `x`: what
+/// [`assemble_corotated`] returns, without assembling (the step's energy monitor).
+pub fn elastic_energy(
+    triangles: &[[u32; 3]],
+    elements: &[Element],
+    rest: &[Vec3A],
+    x: &[Vec3A],
+    normals: &[Vec3A],
+    warping: bool,
+) -> Result<f64, AssemblyError> {
+    let n = x.len();
+    if elements.len() != triangles.len() || rest.len() != n || normals.len() != n {
+        return Err(AssemblyError::LengthMismatch);
+    }
+    let mut energy = 0.0f64;
+    for (tri, e) in triangles.iter().zip(elements) {
+        let idx = tri.map(|i| i as usize);
+        if idx.iter().any(|&i| i >= n) {
+            return Err(AssemblyError::LengthMismatch);
+        }
+        let (_, _, d) = local_displacement(e, idx, rest, x, normals, warping);
+        for (a, da) in d.iter().enumerate() {
+            let s = local_force(e, &d, a);
+            energy += 0.5 * f64::from(s[0] * da[0] + s[1] * da[1]);
+        }
+    }
+    Ok(energy)
+}
+
+/// The tensile part of a membrane stress `[σ11, σ22, σ12]`: its principal values clamped at 0.
+fn tension(s: [f32; 3]) -> [f32; 3] {
+    let mean = 0.5 * (s[0] + s[1]);
+    let half = 0.5 * (s[0] - s[1]);
+    let radius = libm::sqrtf(half * half + s[2] * s[2]);
+    let (l1, l2) = (mean + radius, mean - radius);
+    if l2 >= 0.0 {
+        return s;
+    }
+    if l1 <= 0.0 {
+        return [0.0; 3];
+    }
+    // only l1 > 0: σ⁺ = l1 v vᵀ with v the first principal direction
+    if radius <= 0.0 {
+        return [0.0; 3];
+    }
+    let (c2, s2) = (half / radius, s[2] / radius); // cos 2φ, sin 2φ
+    let cc = 0.5 * (1.0 + c2); // cos²φ
+    let ss = 0.5 * (1.0 - c2); // sin²φ
+    [l1 * cc, l1 * ss, l1 * 0.5 * s2]
 }
 
 /// Flag in an element slot: the pair is stored as block (j, i).
@@ -490,6 +611,23 @@ mod runtime_tests {
         let x = uv.map(|p| Vec3A::new(1.2 * p[0] as f32, 0.9 * p[1] as f32, 0.0));
         let (r0, r1) = corotated_frame(&e.grad, x, Vec3A::Z);
         assert!((r0 - Vec3A::X).length() < 1e-6 && (r1 - Vec3A::Y).length() < 1e-6);
+    }
+
+    #[test]
+    fn tension_keeps_the_positive_principal_part() {
+        // all tensile: unchanged; all compressive: zero
+        assert_eq!(tension([2.0, 1.0, 0.5]), [2.0, 1.0, 0.5]);
+        assert_eq!(tension([-2.0, -1.0, 0.1]), [0.0; 3]);
+        // uniaxial tension along u with compression along v
+        let t = tension([3.0, -1.0, 0.0]);
+        assert!((t[0] - 3.0).abs() < 1e-6 && t[1].abs() < 1e-6 && t[2].abs() < 1e-6);
+        // mixed: σ⁺ is PSD, and σ − σ⁺ is NSD
+        let s = [1.0, -2.0, 1.5];
+        let t = tension(s);
+        let det = |m: [f32; 3]| m[0] * m[1] - m[2] * m[2];
+        assert!(t[0] >= 0.0 && t[1] >= 0.0 && det(t) > -1e-5);
+        let r = [s[0] - t[0], s[1] - t[1], s[2] - t[2]];
+        assert!(r[0] <= 1e-6 && r[1] <= 1e-6 && det(r) > -1e-5);
     }
 
     #[test]

@@ -278,6 +278,13 @@ fn run<F: Filter>(
         // Non-positive curvature: A is not SPD on the free subspace; CG cannot continue.
         // Checked before x moves, so x is still the last good iterate here.
         if !(cq > 0.0 && cq.is_finite()) {
+            // After some progress, a non-positive curvature is f32 round-off at the noise floor
+            // of an ill-conditioned (but SPD) system, e.g. sliver triangles: keep the last good
+            // iterate and report "not converged". At the first iteration it means A itself is
+            // not positive definite.
+            if cq.is_finite() && stats.iterations > 0 {
+                break;
+            }
             return Err(PcgError::Breakdown);
         }
         let alpha = (delta / cq) as f32;

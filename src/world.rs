@@ -429,6 +429,10 @@ pub enum StepError {
     SolverBreakdown,
     /// The step produced NaN or infinite positions or velocities.
     NonFiniteState,
+    /// The step created mechanical energy where nothing could supply it (pins and colliders
+    /// at rest, no wind, no contact): numerically unstable, e.g. sliver triangles beyond f32
+    /// resolution. The state is the one before the step.
+    Unstable,
 }
 
 /// What a step did.
@@ -445,6 +449,22 @@ pub struct StepStats {
     pub asleep: bool,
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
+}
+
+/// A cloth's mechanical energy by kind (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    pub kinetic: f64,
+    pub elastic: f64,
+    pub bending: f64,
+    /// Gravitational potential `-Σ m g·x` (zero when gravity is off).
+    pub gravity: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.elastic + self.bending + self.gravity
+    }
 }
 
 /// Errors of the pin and collider setters.
@@ -949,6 +969,19 @@ impl<'a> World<'a> {
         let n = self.n;
         self.a.x_start[..n].copy_from_slice(&self.a.x[..n]);
         self.a.v_start[..n].copy_from_slice(&self.a.v[..n]);
+        // Energy monitor: with nothing moving the cloth from outside, a damped implicit step
+        // can only lose energy. Checked only then, so it costs nothing in driven scenes.
+        let drivers_still = (!pins_on
+            || self.a.pin_previous[..self.pins] == self.a.pin_target[..self.pins])
+            && self.a.colliders[..self.colliders]
+                .iter()
+                .all(|c| c.previous == c.shape)
+            && eff & effects::WIND == 0;
+        let before = if drivers_still {
+            Some(self.energy())
+        } else {
+            None
+        };
         let substeps = self.settings.substeps.max(1);
         let h = dt / substeps as f32;
         let mut stats = StepStats {
@@ -967,12 +1000,23 @@ impl<'a> World<'a> {
                     stats.contacts = contacts;
                 }
                 Err(e) => {
-                    self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
-                    self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
-                    // Rotations are only warm starts; re-derive them from the restored state.
-                    self.update_rotations(8);
+                    self.restore_start();
                     return Err(e);
                 }
+            }
+        }
+        if let (Some(e0), 0) = (before, stats.contacts) {
+            let e1 = self.energy();
+            // what can legitimately move between the kinds, plus the f32 round-off of the
+            // potential's absolute value (positions carry ~1e-7 relative error)
+            let scale = e0.kinetic
+                + e0.elastic
+                + e0.bending
+                + (e1.gravity - e0.gravity).abs()
+                + 1e-6 * e0.gravity.abs();
+            if e1.total() - e0.total() > 0.05 * scale + 1e-12 {
+                self.restore_start();
+                return Err(StepError::Unstable);
             }
         }
         // The sweep of colliders and pins ends where the engine put them.
@@ -993,6 +1037,63 @@ impl<'a> World<'a> {
         }
         self.last = stats;
         Ok(stats)
+    }
+
+    /// Puts back the state saved at the start of the step.
+    fn restore_start(&mut self) {
+        let n = self.n;
+        self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
+        self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
+        // Rotations are only warm starts; re-derive them from the restored state.
+        self.update_rotations(8);
+    }
+
+    /// The cloth's mechanical energy (J): kinetic, corotated elastic (per element, as the
+    /// step's own forces see it), bending and gravitational (if on).
+    pub fn energy(&mut self) -> Energy {
+        let n = self.n;
+        let eff = self.settings.effects;
+        let warping = eff & effects::WARPING != 0;
+        let a = &mut self.a;
+        let kinetic = a.v[..n]
+            .iter()
+            .zip(&a.mass[..n])
+            .map(|(v, &m)| 0.5 * f64::from(m) * f64::from(v.length_squared()))
+            .sum();
+        let elastic = membrane::elastic_energy(
+            &a.triangles[..self.nt],
+            &a.elements[..self.nt],
+            &a.rest[..n],
+            &a.x[..n],
+            &a.normals[..n],
+            warping,
+        )
+        .unwrap_or(0.0);
+        let bending = if eff & effects::BENDING != 0 {
+            let pattern = Pattern {
+                row_start: &a.row_start[..n + 1],
+                cols: &a.cols[..self.nnz],
+            };
+            bending::energy(&pattern, &a.q_off[..self.nnz], &a.x[..n])
+        } else {
+            0.0
+        };
+        let gravity = if eff & effects::GRAVITY != 0 {
+            let g = Vec3A::from(self.settings.gravity);
+            a.x[..n]
+                .iter()
+                .zip(&a.mass[..n])
+                .map(|(x, &m)| -f64::from(m) * f64::from(g.dot(*x)))
+                .sum()
+        } else {
+            0.0
+        };
+        Energy {
+            kinetic,
+            elastic,
+            bending,
+            gravity,
+        }
     }
 
     fn update_rotations(&mut self, iterations: u32) {
@@ -1104,18 +1205,7 @@ impl<'a> World<'a> {
         }
         if bending_on {
             // Bending force -B Q x (Q annihilates the flat rest shape, so no rest term).
-            a.w_r[..n].fill(Vec3A::ZERO);
-            let _ = sparse::mul_scalar_add(
-                &a.q_diag[..n],
-                &pattern,
-                &a.q_off[..self.nnz],
-                1.0,
-                x,
-                &mut a.w_r[..n],
-            );
-            for (f, q) in rhs.iter_mut().zip(&a.w_r[..n]) {
-                *f -= *q;
-            }
+            let _ = bending::add_forces(&pattern, &a.q_off[..self.nnz], x, rhs);
         }
         let gravity = Vec3A::from(st.gravity);
         let wind = Vec3A::from(st.wind);

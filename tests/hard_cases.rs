@@ -1,0 +1,470 @@
+//! The named hard-case suite: each case runs thousands of steps and asserts no NaN/inf,
+//! bounded energy, no penetration beyond the collider thickness, and that the cloth settles
+//! when it should. A step that fails must report it and keep the last good state; the harness
+//! then retries that frame with more substeps (what an engine would do) and counts it.
+
+mod common;
+
+use common::*;
+use glam::Vec3A;
+use weft::blob::{AlignedBytes, Blob};
+use weft::collide::{Collider, Shape};
+use weft::world::{effects, Capacity, ClothDef, Material, Materials, Settings, World};
+
+/// Homogenizes a cell description given as TOML text; returns the blob bytes.
+fn blob_of(name: &str, toml: &str) -> AlignedBytes {
+    let dir = std::env::temp_dir().join(format!("weft-hard-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, toml).unwrap();
+    let bytes = weft::homogenize::build_blob(&[path], 1, &mut |_, _| {}).unwrap();
+    AlignedBytes::copy_from(&bytes)
+}
+
+/// What a run saw.
+#[derive(Default, Debug)]
+struct Run {
+    steps: usize,
+    failed_steps: usize,
+    /// Frames that failed even with 8× substeps (reported, state kept).
+    refused_frames: usize,
+    peak_kinetic: f64,
+    last_kinetic: f64,
+}
+
+/// Steps `frames` times, calling `frame(w, i)` before each step; checks every state is
+/// finite and that a failed step left the state untouched.
+fn run(w: &mut World<'_>, frames: usize, mut frame: impl FnMut(&mut World<'_>, usize)) -> Run {
+    let mut r = Run::default();
+    for i in 0..frames {
+        frame(w, i);
+        let before: Vec<Vec3A> = w.positions().to_vec();
+        match w.step() {
+            Ok(_) => {}
+            Err(_) => {
+                r.failed_steps += 1;
+                assert_eq!(
+                    w.positions(),
+                    &before[..],
+                    "a failed step must keep the last good state"
+                );
+                // what an engine does: retry the frame with more substeps
+                let s = *w.settings();
+                w.set_settings(Settings {
+                    substeps: s.substeps * 8,
+                    ..s
+                })
+                .unwrap();
+                let retried = w.step();
+                w.set_settings(s).unwrap();
+                if retried.is_err() {
+                    assert_eq!(w.positions(), &before[..], "a refused step keeps the state");
+                    r.refused_frames += 1;
+                }
+            }
+        }
+        assert!(
+            w.positions()
+                .iter()
+                .chain(w.velocities())
+                .all(|p| p.is_finite()),
+            "non-finite state at frame {i}"
+        );
+        let ke = kinetic_energy(w);
+        r.peak_kinetic = r.peak_kinetic.max(ke);
+        r.last_kinetic = ke;
+        r.steps += 1;
+    }
+    r
+}
+
+fn hanging_sheet(n: usize, size: f32) -> Sheet {
+    let mut sheet = Sheet::grid(n, n, size, size);
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    sheet
+}
+
+fn pin_top_corners(w: &mut World<'_>, sheet: &Sheet) -> (u32, u32) {
+    let (a, b) = (
+        sheet.index(0, sheet.ny - 1),
+        sheet.index(sheet.nx - 1, sheet.ny - 1),
+    );
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    (a, b)
+}
+
+/// At rest: every vertex slower than a millimetre per second per metre of cloth.
+fn assert_settled(w: &World<'_>, size: f32, what: &str) {
+    // (or slower than 10 µm/s: at rest to any eye, and the f32 noise floor of a 1 mm cloth)
+    let fastest = w
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max);
+    let limit = (1e-3 * size).max(1e-5);
+    assert!(
+        fastest < limit,
+        "{what} does not settle: fastest vertex {fastest} m/s"
+    );
+}
+
+/// Kinetic energy must stay below the potential energy the cloth can release falling its own
+/// size, times a margin: anything above is energy the integrator created.
+fn energy_bound(w: &World<'_>, drop: f64) -> f64 {
+    10.0 * w.total_mass() * 9.81 * drop
+}
+
+#[test]
+fn contrast_1e4_inside_one_cell_and_a_near_zero_material() {
+    // hard threads in both directions around soft pockets: with a near-zero pocket the cell
+    // keeps its stretch stiffness but nearly loses its shear stiffness (a mechanism)
+    for (name, soft) in [("contrast", 1.0), ("nearzero", 1e-4)] {
+        let toml = format!(
+            r#"size = 0.01
+pattern = ["HHHH", "H...", "H...", "H..."]
+[materials."H"]
+stiffness = 1.0e4
+poisson = 0.3
+density = 0.2
+[materials."."]
+stiffness = {soft}
+poisson = 0.3
+density = 0.1
+"#
+        );
+        let bytes = blob_of(name, &toml);
+        let blob = Blob::parse(&bytes).unwrap();
+        let c = blob.cell(0).unwrap().stiffness;
+        assert!(weft::membrane::is_spd(&c), "{name}: C^H {c:?}");
+        let sheet = hanging_sheet(15, 1.0);
+        let mut mem = memory(&sheet.capacity());
+        let mut w = World::new(
+            &mut mem,
+            sheet.capacity(),
+            &sheet.def(),
+            Materials::Blob(&blob),
+            Settings::default(),
+        )
+        .unwrap();
+        pin_top_corners(&mut w, &sheet);
+        let bound = energy_bound(&w, 1.0);
+        let r = run(&mut w, 3000, |_, _| {});
+        assert!(r.peak_kinetic < bound, "{name}: {r:?}");
+        assert_settled(&w, 1.0, name);
+    }
+}
+
+#[test]
+fn very_stiff_fabric_at_30_hz_one_substep() {
+    let sheet = hanging_sheet(15, 1.0);
+    let mats = [Material {
+        stiffness: weft::membrane::isotropic(1e6, 0.3),
+        density: 0.2,
+        bending: 1e-3,
+    }];
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        time_step: 1.0 / 30.0,
+        substeps: 1,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    pin_top_corners(&mut w, &sheet);
+    let bound = energy_bound(&w, 1.0);
+    let r = run(&mut w, 2000, |_, _| {});
+    assert!(r.peak_kinetic < bound, "{r:?}");
+    assert_settled(&w, 1.0, "cloth");
+}
+
+#[test]
+fn a_pinned_strip_twisted_360_degrees() {
+    // 2 m × 0.2 m strip along x, both short ends pinned; the right end turns once about x
+    let (nx, ny) = (31, 5);
+    let mut sheet = Sheet::grid(nx, ny, 2.0, 0.2);
+    sheet.transform(|p| [p[0], p[1] - 0.1, 0.0]);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        effects: effects::ALL & !effects::SLEEP,
+        damping_mass: 1.0,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    let right: Vec<u32> = (0..ny).map(|j| sheet.index(nx - 1, j)).collect();
+    for j in 0..ny {
+        let l = sheet.index(0, j);
+        w.set_pin(l, sheet.positions[l as usize]).unwrap();
+    }
+    let turn_frames = 240;
+    let bound = energy_bound(&w, 2.0);
+    let r = run(&mut w, 2000, |w, i| {
+        let angle = core::f32::consts::TAU * (i.min(turn_frames) as f32 / turn_frames as f32);
+        let q = glam::Quat::from_rotation_x(angle);
+        for &k in &right {
+            let p = glam::Vec3::from(sheet.positions[k as usize]);
+            let t = q * glam::Vec3::new(0.0, p.y, p.z) + glam::Vec3::new(p.x, 0.0, 0.0);
+            w.set_pin(k, t.into()).unwrap();
+        }
+    });
+    assert!(r.peak_kinetic < bound, "{r:?}");
+    assert_settled(&w, 2.0, "cloth");
+}
+
+#[test]
+fn a_cloth_crumpled_into_a_ball_by_a_shrinking_sphere() {
+    let mut sheet = Sheet::grid(15, 15, 1.0, 1.0);
+    sheet.transform(|p| [p[0] - 0.5, p[1] - 0.5, 0.0]);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    let thickness = 0.005;
+    let shell = |r: f32| Shape::Shell {
+        center: Vec3A::ZERO,
+        radius: r,
+    };
+    w.add_collider(Collider::new(shell(0.75), 0.3, thickness))
+        .unwrap();
+    let shrink = 300;
+    let radius = |i: usize| 0.75 - 0.6 * (i.min(shrink) as f32 / shrink as f32);
+    let r = run(&mut w, 1500, |w, i| {
+        w.set_collider_shape(0, shell(radius(i))).unwrap()
+    });
+    // everything ends inside the final ball, no deeper into the shell than its thickness
+    let final_r = radius(1500);
+    for (k, p) in w.positions().iter().enumerate() {
+        assert!(
+            p.length() <= final_r - thickness + 1e-5,
+            "vertex {k} at {} outside {}",
+            p.length(),
+            final_r
+        );
+    }
+    assert!(r.peak_kinetic < energy_bound(&w, 1.0), "{r:?}");
+}
+
+#[test]
+fn a_pin_teleported_10_m_in_one_frame() {
+    let sheet = hanging_sheet(15, 1.0);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let damped = Settings {
+        damping_mass: 1.0,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, damped);
+    let (a, b) = pin_top_corners(&mut w, &sheet);
+    run(&mut w, 300, |_, _| {});
+    let jump = Vec3A::new(10.0, 0.0, 0.0);
+    let r = run(&mut w, 2500, |w, i| {
+        if i == 0 {
+            for k in [a, b] {
+                let t = Vec3A::from(sheet.positions[k as usize]) + jump;
+                w.set_pin(k, t.into()).unwrap();
+            }
+        }
+    });
+    // the cloth follows and comes to rest again; nothing was refused
+    assert_eq!(r.refused_frames, 0, "{r:?}");
+    assert_settled(&w, 1.0, "cloth");
+    let com: Vec3A = w.positions().iter().copied().sum::<Vec3A>() / w.vertex_count() as f32;
+    assert!((com.x - 10.5).abs() < 0.2, "centre of mass {com}");
+}
+
+#[test]
+fn a_collider_moving_at_50_m_per_s_through_the_cloth() {
+    let sheet = hanging_sheet(15, 1.0);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let damped = Settings {
+        damping_mass: 1.0,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, damped);
+    pin_top_corners(&mut w, &sheet);
+    let thickness = 0.005;
+    let at = |y: f32| Shape::Sphere {
+        center: Vec3A::new(0.5, y, 0.5),
+        radius: 0.2,
+    };
+    w.add_collider(Collider::new(at(-3.0), 0.2, thickness))
+        .unwrap();
+    let speed = 50.0 / 60.0; // metres per frame
+    let r = run(&mut w, 1500, |w, i| {
+        // one pass through the cloth, then park far away
+        let y = (-3.0 + speed * i as f32).min(6.0);
+        w.set_collider_shape(0, at(y)).unwrap();
+    });
+    for (k, p) in w.positions().iter().enumerate() {
+        assert!(
+            at(6.0).proximity(*p).distance > thickness - 1e-5,
+            "vertex {k} inside"
+        );
+    }
+    assert!(r.peak_kinetic < energy_bound(&w, 1.0) * 20.0, "{r:?}");
+    assert_settled(&w, 1.0, "cloth");
+}
+
+#[test]
+fn a_free_falling_cloth_without_pins() {
+    // no pins: the stiffness alone is singular (rigid modes); only the mass keeps A definite
+    let mut sheet = Sheet::grid(12, 12, 1.0, 1.0);
+    sheet.transform(|p| [p[0], p[1], 100.0]);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        effects: effects::GRAVITY | effects::BENDING | effects::WARPING,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    let frames = 1000;
+    run(&mut w, frames, |_, _| {});
+    // implicit Euler on free fall: z(n) = z0 - g h² n(n+1)/2, exactly (no damping)
+    let h = 1.0 / 60.0f64;
+    let n = frames as f64;
+    let expected = 100.0 - 9.81 * h * h * n * (n + 1.0) / 2.0;
+    let com_z = w.positions().iter().map(|p| p.z as f64).sum::<f64>() / w.vertex_count() as f64;
+    assert!(
+        (com_z - expected).abs() < 1e-3 * (100.0 - expected),
+        "z {com_z} vs {expected}"
+    );
+    // and the sheet is still flat and unstretched
+    let span =
+        w.positions()[sheet.index(11, 0) as usize] - w.positions()[sheet.index(0, 0) as usize];
+    assert!((span.length() - 1.0).abs() < 1e-3, "span {span}");
+}
+
+#[test]
+fn sliver_triangles_and_a_single_triangle() {
+    // a hanging cloth with a seam of sliver triangles (a CAD export that welded two panels
+    // badly): at 1:100 it behaves; at 1:1000 the seam's short side is ~1000 f32 ulps of the
+    // coordinates, its strain is noise, and the step must say so rather than gain energy
+    for aspect in [100.0f32, 1000.0] {
+        let mut sheet = hanging_sheet(15, 1.0);
+        let h = 1.0 / 14.0;
+        for j in 0..sheet.ny {
+            let k = sheet.index(7, j) as usize;
+            let x = 6.0 * h + h / aspect;
+            sheet.positions[k][0] = x;
+            sheet.uvs[k][0] = x;
+        }
+        let mats = [anisotropic()];
+        let mut mem = memory(&sheet.capacity());
+        let damped = Settings {
+            damping_mass: 1.0,
+            ..Settings::default()
+        };
+        let mut w = world(&mut mem, &sheet, &mats, damped);
+        pin_top_corners(&mut w, &sheet);
+        let r = run(&mut w, 2000, |_, _| {});
+        assert!(
+            r.peak_kinetic < energy_bound(&w, 1.0),
+            "aspect {aspect}: {r:?}"
+        );
+        if aspect <= 100.0 {
+            assert_eq!(r.failed_steps, 0, "{r:?}");
+            assert_settled(&w, 1.0, "cloth with a 1:100 sliver seam");
+        } else {
+            println!("aspect 1:{aspect}: {r:?}");
+        }
+    }
+
+    // a single triangle, one corner pinned: it swings and comes to rest hanging
+    let positions = [[0.0f32, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0]];
+    let uvs = [[0.0f32, 0.0], [0.1, 0.0], [0.0, 0.1]];
+    let triangles = [[0u32, 1, 2]];
+    let cap = Capacity {
+        vertices: 3,
+        triangles: 1,
+        edges: 3,
+        colliders: 1,
+        pins: 1,
+    };
+    let mut mem = memory(&cap);
+    let def = ClothDef {
+        positions: &positions,
+        uvs: &uvs,
+        triangles: &triangles,
+        materials: &[0],
+    };
+    let mats = [anisotropic()];
+    let damped = Settings {
+        damping_mass: 1.0,
+        ..Settings::default()
+    };
+    let mut w = World::new(&mut mem, cap, &def, Materials::Table(&mats), damped).unwrap();
+    w.set_pin(0, positions[0]).unwrap();
+    run(&mut w, 3000, |_, _| {});
+    assert_settled(&w, 0.1, "single triangle");
+    let c = (w.positions()[1] + w.positions()[2]) * 0.5;
+    assert!(c.z < -0.05, "hangs below its pin: {c}");
+}
+
+#[test]
+fn a_hundred_thousand_steps_of_a_hanging_cloth() {
+    let sheet = hanging_sheet(8, 0.5);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    pin_top_corners(&mut w, &sheet);
+    let first = run(&mut w, 10_000, |_, _| {});
+    let settled: Vec<Vec3A> = w.positions().to_vec();
+    let rest = run(&mut w, 90_000, |_, _| {});
+    assert!(
+        rest.peak_kinetic <= first.peak_kinetic,
+        "energy grew: {first:?} then {rest:?}"
+    );
+    let drift = w
+        .positions()
+        .iter()
+        .zip(&settled)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f32::max);
+    assert!(
+        drift < 1e-4,
+        "rest shape drifted {drift} m over 90,000 steps"
+    );
+}
+
+#[test]
+fn extreme_scales_1_mm_and_100_m() {
+    for scale in [1e-3f32, 100.0] {
+        let toml = format!(
+            r#"size = {}
+pattern = ["HH..", "....", "HH..", "...."]
+[materials."H"]
+stiffness = 2000.0
+poisson = 0.3
+density = 0.2
+[materials."."]
+stiffness = 200.0
+poisson = 0.3
+density = 0.1
+"#,
+            0.01 * scale
+        );
+        let bytes = blob_of(&format!("scale{scale}"), &toml);
+        let blob = Blob::parse(&bytes).unwrap();
+        let sheet = hanging_sheet(13, scale);
+        let mut mem = memory(&sheet.capacity());
+        let settings = Settings {
+            damping_mass: 1.0,
+            ..Settings::default()
+        };
+        let mut w = World::new(
+            &mut mem,
+            sheet.capacity(),
+            &sheet.def(),
+            Materials::Blob(&blob),
+            settings,
+        )
+        .unwrap();
+        pin_top_corners(&mut w, &sheet);
+        let r = run(&mut w, 3000, |_, _| {});
+        assert!(
+            r.peak_kinetic < energy_bound(&w, scale as f64),
+            "scale {scale}: {r:?}"
+        );
+        assert_settled(&w, scale, &format!("scale {scale}"));
+    }
+}
