@@ -185,6 +185,61 @@ pub fn dihedral_angle(x: [Vec3A; 4]) -> f32 {
     }
 }
 
+/// The assembled bending force `f = -B Q x` (N), added to `force`, computed from edge
+/// differences: `f_i = -Σ_j Q_ij (x_j - x_i)`. Every row of `Q` sums to zero (it annihilates
+/// translations), so this is the same force, but it never forms `Q x` from absolute
+/// coordinates, whose f32 cancellation is large next to sliver hinges (weights ~ aspect ratio).
+/// `off` holds the strictly-upper scalar entries of `B Q` on `p`.
+pub fn add_forces(
+    p: &crate::sparse::Pattern<'_>,
+    off: &[f32],
+    x: &[Vec3A],
+    force: &mut [Vec3A],
+) -> Result<(), crate::sparse::SparseError> {
+    let n = x.len();
+    if p.n() != n || force.len() != n || off.len() < p.nnz() {
+        return Err(crate::sparse::SparseError::LengthMismatch);
+    }
+    for i in 0..n {
+        let range = p
+            .row_range(i)
+            .ok_or(crate::sparse::SparseError::InvalidPattern)?;
+        let xi = x[i];
+        for k in range {
+            let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) else {
+                return Err(crate::sparse::SparseError::InvalidPattern);
+            };
+            let j = j as usize;
+            let d = x
+                .get(j)
+                .ok_or(crate::sparse::SparseError::IndexOutOfRange)?
+                - xi;
+            force[i] -= q * d;
+            force[j] += q * d;
+        }
+    }
+    Ok(())
+}
+
+/// The bending energy `½ xᵀ B Q x = -½ Σ_{i<j} Q_ij |x_i - x_j|²` (J), in the same
+/// difference form as [`add_forces`].
+pub fn energy(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> f64 {
+    let mut e = 0.0f64;
+    for i in 0..x.len().min(p.n()) {
+        let Some(range) = p.row_range(i) else {
+            return e;
+        };
+        for k in range {
+            if let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) {
+                if let Some(xj) = x.get(j as usize) {
+                    e -= 0.5 * f64::from(q) * f64::from((*xj - x[i]).length_squared());
+                }
+            }
+        }
+    }
+    e
+}
+
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)] // index loops read like the matrix formulas they check
 mod tests {
@@ -647,59 +702,4 @@ mod tests {
             assert!((ratio - 1.0).abs() < 1e-2, "φ {phi}: {ratio}");
         }
     }
-}
-
-/// The assembled bending force `f = -B Q x` (N), added to `force`, computed from edge
-/// differences: `f_i = -Σ_j Q_ij (x_j - x_i)`. Every row of `Q` sums to zero (it annihilates
-/// translations), so this is the same force, but it never forms `Q x` from absolute
-/// coordinates, whose f32 cancellation is large next to sliver hinges (weights ~ aspect ratio).
-/// `off` holds the strictly-upper scalar entries of `B Q` on `p`.
-pub fn add_forces(
-    p: &crate::sparse::Pattern<'_>,
-    off: &[f32],
-    x: &[Vec3A],
-    force: &mut [Vec3A],
-) -> Result<(), crate::sparse::SparseError> {
-    let n = x.len();
-    if p.n() != n || force.len() != n || off.len() < p.nnz() {
-        return Err(crate::sparse::SparseError::LengthMismatch);
-    }
-    for i in 0..n {
-        let range = p
-            .row_range(i)
-            .ok_or(crate::sparse::SparseError::InvalidPattern)?;
-        let xi = x[i];
-        for k in range {
-            let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) else {
-                return Err(crate::sparse::SparseError::InvalidPattern);
-            };
-            let j = j as usize;
-            let d = x
-                .get(j)
-                .ok_or(crate::sparse::SparseError::IndexOutOfRange)?
-                - xi;
-            force[i] -= q * d;
-            force[j] += q * d;
-        }
-    }
-    Ok(())
-}
-
-/// The bending energy `½ xᵀ B Q x = -½ Σ_{i<j} Q_ij |x_i - x_j|²` (J), in the same
-/// difference form as [`add_forces`].
-pub fn energy(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> f64 {
-    let mut e = 0.0f64;
-    for i in 0..x.len().min(p.n()) {
-        let Some(range) = p.row_range(i) else {
-            return e;
-        };
-        for k in range {
-            if let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) {
-                if let Some(xj) = x.get(j as usize) {
-                    e -= 0.5 * f64::from(q) * f64::from((*xj - x[i]).length_squared());
-                }
-            }
-        }
-    }
-    e
 }
