@@ -25,7 +25,7 @@ use crate::collide::{self, Collider, Shape};
 use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
 use crate::pcg::{self, Operator};
-use crate::rotation::{self, RestRing};
+use crate::rotation;
 use crate::sparse::{self, Pattern};
 
 /// Scene effects, a bit set. An effect that is off costs nothing in the step.
@@ -64,8 +64,8 @@ impl Capacity {
     /// The default C build: a 64×64-vertex cloth and 8 colliders.
     pub const DEFAULT: Capacity = Capacity {
         vertices: 4096,
-        triangles: 8192,
-        edges: 12288,
+        triangles: 8064,
+        edges: 12160,
         colliders: 8,
         pins: 64,
     };
@@ -140,14 +140,10 @@ arrays! { cap;
     tri_material: u32 = [cap.t(); 0],
     vt_start: u32 = [cap.v() + 1; 0],
     vt: u32 = [3 * cap.t(); 0],
-    edges: [u32; 2] = [cap.e(); [0; 2]],
-    edge_tris: [u32; 2] = [cap.e(); [0; 2]],
-    hinges: [u32; 4] = [cap.e(); [0; 4]],
     ring_start: u32 = [cap.v() + 1; 0],
     ring: u32 = [2 * cap.e(); 0],
     scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
-    couplings: [u32; 2] = [cap.b(); [0; 2]],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
     row_start: u32 = [cap.v() + 1; 0],
     cols: u32 = [cap.b(); 0],
@@ -164,7 +160,6 @@ arrays! { cap;
     q_diag: f32 = [cap.v(); 0.0],
     q_off: f32 = [cap.b(); 0.0],
     rot: Quat = [cap.v(); Quat::IDENTITY],
-    rings: RestRing = [cap.v(); RestRing::EMPTY],
     normals: Vec3A = [cap.v(); Vec3A::Z],
     /// Right-hand side, solution (warm start) and PCG work vectors.
     rhs: Vec3A = [cap.v(); Vec3A::ZERO],
@@ -173,7 +168,6 @@ arrays! { cap;
     w_c: Vec3A = [cap.v(); Vec3A::ZERO],
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
-    tmp: Vec3A = [cap.v(); Vec3A::ZERO],
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
@@ -586,6 +580,19 @@ impl<'a> World<'a> {
             a.x[i] = Vec3A::from(p);
             a.rest[i] = Vec3A::new(uv[0], uv[1], 0.0);
         }
+        // Edges, hinges and the block couplings are needed only here, before the stiffness
+        // blocks are first assembled: they borrow the blocks' bytes (2E blocks of 48 bytes hold
+        // E edges, E edge-triangle pairs, E hinges and 2E couplings with room to spare).
+        let e_cap = self.capacity.e();
+        let scratch: &mut [u8] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let (edges, scratch) = scratch.split_at_mut(8 * e_cap);
+        let (edge_tris, scratch) = scratch.split_at_mut(8 * e_cap);
+        let (hinges, scratch) = scratch.split_at_mut(16 * e_cap);
+        let (couplings, _) = scratch.split_at_mut(16 * e_cap);
+        let edges: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edges);
+        let edge_tris: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edge_tris);
+        let hinges: &mut [[u32; 4]] = bytemuck::cast_slice_mut(hinges);
+        let couplings: &mut [[u32; 2]] = bytemuck::cast_slice_mut(couplings);
         let counts = mesh::build(
             n,
             &a.triangles[..nt],
@@ -593,9 +600,9 @@ impl<'a> World<'a> {
             &mut Topology {
                 vt_start: a.vt_start,
                 vt: a.vt,
-                edges: a.edges,
-                edge_tris: a.edge_tris,
-                hinges: a.hinges,
+                edges,
+                edge_tris,
+                hinges,
                 ring_start: a.ring_start,
                 ring: a.ring,
                 scratch_a: a.scratch_a,
@@ -604,9 +611,9 @@ impl<'a> World<'a> {
         )?;
         self.ne = counts.edges;
         self.nh = counts.hinges;
-        let nc = mesh::couplings(&a.edges[..self.ne], &a.hinges[..self.nh], a.couplings)?;
+        let nc = mesh::couplings(&edges[..self.ne], &hinges[..self.nh], couplings)?;
         self.nnz =
-            sparse::build_pattern(n, &a.couplings[..nc], a.row_start, a.cols).map_err(|_| {
+            sparse::build_pattern(n, &couplings[..nc], a.row_start, a.cols).map_err(|_| {
                 InitError::EdgeCapacity {
                     capacity: self.capacity.edges,
                 }
@@ -652,8 +659,7 @@ impl<'a> World<'a> {
 
         // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
         // stiffness of its two triangles.
-        for h in 0..self.nh {
-            let hinge = a.hinges[h];
+        for &hinge in &hinges[..self.nh] {
             let t0 = triangle_of(
                 a.vt_start,
                 a.vt,
@@ -702,14 +708,6 @@ impl<'a> World<'a> {
             }
         }
 
-        rotation::rest_rings(
-            &a.ring_start[..n + 1],
-            &a.ring[..2 * self.ne],
-            &a.mass[..n],
-            &a.rest[..n],
-            &mut a.rings[..n],
-        )
-        .map_err(|_| InitError::Internal)?;
         // Warm start the rotations from the initial placement.
         self.update_rotations(8);
         Ok(())
@@ -1114,7 +1112,6 @@ impl<'a> World<'a> {
             &a.ring[..2 * self.ne],
             &a.mass[..n],
             &a.rest[..n],
-            &a.rings[..n],
             &a.x[..n],
             &a.normals[..n],
             &mut a.rot[..n],
@@ -1197,7 +1194,7 @@ impl<'a> World<'a> {
             rot,
             bending_on,
             v,
-            &mut a.tmp[..n],
+            &mut a.force[..n],
             &mut a.w_r[..n],
         );
         for (f, kv) in rhs.iter_mut().zip(&a.w_r[..n]) {
@@ -1331,7 +1328,7 @@ impl<'a> World<'a> {
                     bending: bending_on,
                     c_m,
                     c_k,
-                    tmp: core::cell::RefCell::new(&mut a.tmp[..n]),
+                    tmp: core::cell::RefCell::new(&mut a.force[..n]),
                 };
                 pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
             }
