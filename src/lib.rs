@@ -37,6 +37,7 @@ pub mod mesh;
 pub mod pcg;
 pub mod rotation;
 pub mod sparse;
+pub mod strided;
 pub mod world;
 
 #[cfg(feature = "std")]
