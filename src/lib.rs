@@ -32,6 +32,7 @@ extern crate std;
 pub mod bending;
 pub mod blob;
 pub mod collide;
+pub mod localize;
 pub mod membrane;
 pub mod mesh;
 pub mod pcg;
