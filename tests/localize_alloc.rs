@@ -1,12 +1,14 @@
 //! Localization never touches the heap: a counting global allocator watches binding, the
-//! tiled mesh, prepare, localize (interleaved, with normals, in ranges) and the exact normals
-//! (the only test in this binary; every buffer is made before counting starts).
+//! tiled mesh, prepare, localize (interleaved, with normals, in ranges) and the exact normals.
+//! Every buffer is made before counting starts, and only this thread's allocations count
+//! (threads left behind by the offline homogenization may still be winding down).
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::*;
 use weft::blob::{AlignedBytes, Blob};
@@ -19,12 +21,18 @@ use weft::world::{Materials, World};
 
 struct Counting;
 
-static COUNTING: AtomicBool = AtomicBool::new(false);
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+fn counting() -> bool {
+    COUNTING.try_with(Cell::get).unwrap_or(false)
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        if COUNTING.load(Ordering::SeqCst) {
+        if counting() {
             ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
         }
         unsafe { System.alloc(layout) }
@@ -33,7 +41,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        if COUNTING.load(Ordering::SeqCst) {
+        if counting() {
             ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
         }
         unsafe { System.realloc(ptr, layout, new_size) }
@@ -73,7 +81,13 @@ fn bind_prepare_localize_allocate_nothing() {
     let stride = 32;
     let mut vb = vec![0u8; nv * stride];
 
-    COUNTING.store(true, Ordering::SeqCst);
+    // the counter sees this thread's allocations
+    COUNTING.with(|c| c.set(true));
+    std::hint::black_box(vec![1u8; 3]);
+    COUNTING.with(|c| c.set(false));
+    assert_eq!(ALLOCATIONS.swap(0, Ordering::SeqCst), 1);
+
+    COUNTING.with(|c| c.set(true));
     tiled_mesh(&w, &blob, 1, &mut uv, &mut tris, Some(&mut mats)).unwrap();
     bind(&w, &blob, &Strided::from_slice(&uv), &mut bindings).unwrap();
     for _ in 0..3 {
@@ -87,6 +101,6 @@ fn bind_prepare_localize_allocate_nothing() {
         let mut all = StridedMut::<3>::new(&mut vb, stride, nv).unwrap();
         recompute_normals(&tris, &mut all, NormalTarget::Interleaved { offset: 12 }).unwrap();
     }
-    COUNTING.store(false, Ordering::SeqCst);
+    COUNTING.with(|c| c.set(false));
     assert_eq!(ALLOCATIONS.load(Ordering::SeqCst), 0);
 }
