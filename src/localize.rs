@@ -1010,18 +1010,20 @@ pub fn localize(
     let (bytes, stride, po, _) = positions.parts_mut();
     let bad = |i: usize| LocalizeError::BadBinding { index: first + i };
     match normals {
+        // Record offsets cannot overflow: the constructor checked (count-1)·stride + po + 12
+        // against the buffer (and check_interleaved the same for the normal).
         None => {
-            for (i, (rec, b)) in bytes.chunks_mut(stride).zip(bindings).enumerate() {
+            for (i, b) in bindings.iter().enumerate() {
                 let c = corners(frames, triangles, b).ok_or(bad(i))?;
-                put(rec, po, position(c, b));
+                put(bytes, po + i * stride, position(c, b));
             }
         }
         Some(NormalTarget::Interleaved { offset: no }) => {
             check_interleaved(bytes.len(), stride, po, no, count)?;
-            for (i, (rec, b)) in bytes.chunks_mut(stride).zip(bindings).enumerate() {
+            for (i, b) in bindings.iter().enumerate() {
                 let c = corners(frames, triangles, b).ok_or(bad(i))?;
-                put(rec, po, position(c, b));
-                put(rec, no, normal(c, b));
+                put(bytes, po + i * stride, position(c, b));
+                put(bytes, no + i * stride, normal(c, b));
             }
         }
         Some(NormalTarget::Buffer(nb)) => {
