@@ -556,7 +556,7 @@ pub fn bind(
 
 /// Binds one point to a given coarse triangle, without point location or domain check (the
 /// barycentrics may lie outside [0, 1]). For render meshes built per coarse triangle, and for
-/// checking continuity across coarse edges.
+/// checking continuity across coarse edges. A non-finite `uv` is `OutOfDomain { vertex: 0 }`.
 pub fn bind_to_triangle(
     world: &World<'_>,
     blob: &Blob<'_>,
