@@ -144,6 +144,11 @@
 #define WEFT_SHAPE_CAPSULE 2
 
 /**
+ * `WeftShape.kind`: a hollow sphere; the cloth is kept inside it.
+ */
+#define WEFT_SHAPE_SHELL 3
+
+/**
  * Default `WeftCapacity.max_vertices` (a 64 × 64-vertex cloth).
  */
 #define WEFT_DEFAULT_MAX_VERTICES 4096
@@ -151,12 +156,12 @@
 /**
  * Default `WeftCapacity.max_triangles`.
  */
-#define WEFT_DEFAULT_MAX_TRIANGLES 8192
+#define WEFT_DEFAULT_MAX_TRIANGLES 8064
 
 /**
  * Default `WeftCapacity.max_edges`.
  */
-#define WEFT_DEFAULT_MAX_EDGES 12288
+#define WEFT_DEFAULT_MAX_EDGES 12160
 
 /**
  * Default `WeftCapacity.max_colliders`.
@@ -186,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 5723712
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 4186656
 
 /**
  * Result of every fallible call. `WEFT_RESULT_OK` (0) is success; `weft_result_string` names
@@ -387,6 +392,12 @@ enum WeftResult
      * Usually a time step far too large for the cloth's stiffness: try more substeps.
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
+    /**
+     * The cloth gained mechanical energy with nothing driving it (pins and colliders still, no
+     * wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
+     * beyond f32 resolution. The world kept the state it had before the step.
+     */
+    WEFT_RESULT_UNSTABLE = 68,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -706,11 +717,11 @@ typedef struct WeftWorldDef {
 
 /**
  * A collider's geometry, world space, metres. Make one with `weft_shape_plane`,
- * `weft_shape_sphere` or `weft_shape_capsule`.
+ * `weft_shape_sphere`, `weft_shape_capsule` or `weft_shape_shell`.
  */
 typedef struct WeftShape {
     /**
-     * `WEFT_SHAPE_PLANE`, `WEFT_SHAPE_SPHERE` or `WEFT_SHAPE_CAPSULE`; anything else is
+     * `WEFT_SHAPE_PLANE`, `WEFT_SHAPE_SPHERE`, `WEFT_SHAPE_CAPSULE` or `WEFT_SHAPE_SHELL`; anything else is
      * `WEFT_RESULT_INVALID_ARGUMENT`.
      */
     uint32_t kind;
@@ -880,6 +891,12 @@ struct WeftShape weft_shape_sphere(struct WeftVec3 center, float radius);
  * A capsule: the segment `a`–`b` (metres) swept by a sphere of `radius` metres (> 0).
  */
 struct WeftShape weft_shape_capsule(struct WeftVec3 a, struct WeftVec3 b, float radius);
+
+/**
+ * A hollow sphere of `radius` metres (> 0) around `center`: the cloth is kept inside it (a
+ * container, or a shrinking sphere that crumples the cloth).
+ */
+struct WeftShape weft_shape_shell(struct WeftVec3 center, float radius);
 
 /**
  * Bytes a world of `*capacity` needs (header, arrays and create-time scratch), a multiple of

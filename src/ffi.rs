@@ -94,13 +94,15 @@ pub const WEFT_SHAPE_PLANE: u32 = 0;
 pub const WEFT_SHAPE_SPHERE: u32 = 1;
 /// `WeftShape.kind`: a segment swept by a sphere.
 pub const WEFT_SHAPE_CAPSULE: u32 = 2;
+/// `WeftShape.kind`: a hollow sphere; the cloth is kept inside it.
+pub const WEFT_SHAPE_SHELL: u32 = 3;
 
 /// Default `WeftCapacity.max_vertices` (a 64 × 64-vertex cloth).
 pub const WEFT_DEFAULT_MAX_VERTICES: u32 = 4096;
 /// Default `WeftCapacity.max_triangles`.
-pub const WEFT_DEFAULT_MAX_TRIANGLES: u32 = 8192;
+pub const WEFT_DEFAULT_MAX_TRIANGLES: u32 = 8064;
 /// Default `WeftCapacity.max_edges`.
-pub const WEFT_DEFAULT_MAX_EDGES: u32 = 12288;
+pub const WEFT_DEFAULT_MAX_EDGES: u32 = 12160;
 /// Default `WeftCapacity.max_colliders`.
 pub const WEFT_DEFAULT_MAX_COLLIDERS: u32 = 8;
 /// Default `WeftCapacity.max_pins`.
@@ -116,7 +118,7 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// in bytes, a multiple of `WEFT_WORLD_MEMORY_ALIGN`: lets a default-capacity world live in a
 /// static array. It changes between library versions; query `weft_world_memory_size` for any
 /// other capacity.
-pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 5_723_712;
+pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 4_186_656;
 
 /// Sizes of the scratch area the strided input is gathered into during create.
 const STAGE_VERTEX_BYTES: usize = size_of::<[f32; 3]>() + size_of::<[f32; 2]>();
@@ -254,6 +256,10 @@ pub enum WeftResult {
     /// The step produced NaN or infinite positions; the world kept the state it had before.
     /// Usually a time step far too large for the cloth's stiffness: try more substeps.
     NonFiniteState = 67,
+    /// The cloth gained mechanical energy with nothing driving it (pins and colliders still, no
+    /// wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
+    /// beyond f32 resolution. The world kept the state it had before the step.
+    Unstable = 68,
 }
 
 /// A 3D vector (metres, or metres per second for velocities). 12 bytes, no padding, any
@@ -423,11 +429,11 @@ pub struct WeftCellInfo {
 }
 
 /// A collider's geometry, world space, metres. Make one with `weft_shape_plane`,
-/// `weft_shape_sphere` or `weft_shape_capsule`.
+/// `weft_shape_sphere`, `weft_shape_capsule` or `weft_shape_shell`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeftShape {
-    /// `WEFT_SHAPE_PLANE`, `WEFT_SHAPE_SPHERE` or `WEFT_SHAPE_CAPSULE`; anything else is
+    /// `WEFT_SHAPE_PLANE`, `WEFT_SHAPE_SPHERE`, `WEFT_SHAPE_CAPSULE` or `WEFT_SHAPE_SHELL`; anything else is
     /// `WEFT_RESULT_INVALID_ARGUMENT`.
     pub kind: u32,
     /// Plane: unit outward normal. Sphere: centre. Capsule: first end of the segment.
@@ -766,6 +772,7 @@ fn step_fault(e: StepError) -> Fault {
         StepError::NonFinitePin { vertex } => fault(R::NonFinitePin).vertex(vertex),
         StepError::SolverBreakdown => fault(R::SolverBreakdown),
         StepError::NonFiniteState => fault(R::NonFiniteState),
+        StepError::Unstable => fault(R::Unstable),
     }
 }
 
@@ -912,6 +919,10 @@ fn shape_from_c(s: &WeftShape) -> FfiResult<Shape> {
         WEFT_SHAPE_CAPSULE => Shape::Capsule {
             a: v(s.p0),
             b: v(s.p1),
+            radius: s.size,
+        },
+        WEFT_SHAPE_SHELL => Shape::Shell {
+            center: v(s.p0),
             radius: s.size,
         },
         _ => return Err(invalid(c"shape.kind")),
@@ -1156,6 +1167,10 @@ pub extern "C" fn weft_result_string(result: u32) -> *const c_char {
         (R::NonFinitePin, c"pin target not finite"),
         (R::SolverBreakdown, c"linear solver broke down"),
         (R::NonFiniteState, c"step produced non-finite state"),
+        (
+            R::Unstable,
+            c"the cloth gains energy with nothing driving it (unstable)",
+        ),
     ];
     all.iter()
         .find(|(r, _)| *r as u32 == result)
@@ -1344,6 +1359,18 @@ pub extern "C" fn weft_shape_capsule(a: WeftVec3, b: WeftVec3, radius: f32) -> W
         kind: WEFT_SHAPE_CAPSULE,
         p0: a,
         p1: b,
+        size: radius,
+    }
+}
+
+/// A hollow sphere of `radius` metres (> 0) around `center`: the cloth is kept inside it (a
+/// container, or a shrinking sphere that crumples the cloth).
+#[no_mangle]
+pub extern "C" fn weft_shape_shell(center: WeftVec3, radius: f32) -> WeftShape {
+    WeftShape {
+        kind: WEFT_SHAPE_SHELL,
+        p0: center,
+        p1: WeftVec3::default(),
         size: radius,
     }
 }

@@ -162,7 +162,7 @@ fn result_strings_name_every_value() {
             assert!(seen.insert(s), "{v}: {s} is not unique");
         }
     }
-    assert_eq!(seen.len(), 42, "one string per WeftResult value");
+    assert_eq!(seen.len(), 43, "one string per WeftResult value");
     let unknown = unsafe { CStr::from_ptr(weft_result_string(u32::MAX)) };
     assert_eq!(unknown.to_str().unwrap(), "unknown result");
 }
@@ -940,7 +940,7 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     // Colliders.
     let mut c = weft_default_collider_def();
     let mut index = 77u32;
-    c.shape.kind = 3;
+    c.shape.kind = 4; // not a WEFT_SHAPE_* value
     assert_eq!(
         unsafe { weft_world_add_collider(w, &c, &mut index) },
         WeftResult::InvalidArgument
