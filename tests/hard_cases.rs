@@ -357,14 +357,20 @@ fn sliver_triangles_and_a_single_triangle() {
         let mut w = world(&mut mem, &sheet, &mats, damped);
         pin_top_corners(&mut w, &sheet);
         let r = run(&mut w, 2000, |_, _| {});
-        assert!(
-            r.peak_kinetic < energy_bound(&w, 1.0),
-            "aspect {aspect}: {r:?}"
-        );
         if aspect <= 100.0 {
+            assert!(
+                r.peak_kinetic < energy_bound(&w, 1.0),
+                "aspect {aspect}: {r:?}"
+            );
             assert_eq!(r.failed_steps, 0, "{r:?}");
             assert_settled(&w, 1.0, "cloth with a 1:100 sliver seam");
         } else {
+            // beyond f32 resolution: not stable (README, "Limits"); what must hold is that the
+            // step says so (Unstable) and every refused step kept its state (checked in `run`)
+            assert!(
+                r.failed_steps > 0,
+                "a 1:1000 seam gains energy unnoticed: {r:?}"
+            );
             println!("aspect 1:{aspect}: {r:?}");
         }
     }
