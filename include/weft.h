@@ -322,6 +322,15 @@ enum WeftResult
      */
     WEFT_RESULT_INVALID_SETTING = 40,
     /**
+     * Vertex `detail.vertex` belongs to no triangle (it would have no mass).
+     */
+    WEFT_RESULT_MESH_UNUSED_VERTEX = 41,
+    /**
+     * Triangle `detail.triangle` is so large or so small in (u, v) that its area or mass does
+     * not fit a 32-bit float.
+     */
+    WEFT_RESULT_MESH_UV_OUT_OF_RANGE = 42,
+    /**
      * The blob is shorter than its header, or than the size its header announces, or longer
      * (`detail.what` says which): a truncated or padded file.
      */

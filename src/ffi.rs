@@ -215,6 +215,11 @@ pub enum WeftResult {
     InvalidMaterial = 39,
     /// A `WeftSettings` field is out of range: `detail.what` names it.
     InvalidSetting = 40,
+    /// Vertex `detail.vertex` belongs to no triangle (it would have no mass).
+    MeshUnusedVertex = 41,
+    /// Triangle `detail.triangle` is so large or so small in (u, v) that its area or mass does
+    /// not fit a 32-bit float.
+    MeshUvOutOfRange = 42,
 
     /// The blob is shorter than its header, or than the size its header announces, or longer
     /// (`detail.what` says which): a truncated or padded file.
@@ -731,6 +736,8 @@ fn mesh_fault(e: MeshError) -> Fault {
         MeshError::NonManifoldEdge { a, b } => fault(R::MeshNonManifoldEdge).edge(a, b),
         MeshError::FoldedUv { a, b } => fault(R::MeshFoldedUv).edge(a, b),
         MeshError::NonFinite { vertex } => fault(R::MeshNonFinite).vertex(vertex),
+        MeshError::UnusedVertex { vertex } => fault(R::MeshUnusedVertex).vertex(vertex),
+        MeshError::UvOutOfRange { triangle } => fault(R::MeshUvOutOfRange).triangle(triangle),
         // The FFI always hands the kernel buffers of matching length.
         MeshError::BufferTooSmall => fault(R::Internal).what(c"mesh buffer"),
     }
@@ -1170,6 +1177,11 @@ pub extern "C" fn weft_result_string(result: u32) -> *const c_char {
         (
             R::Unstable,
             c"the cloth gains energy with nothing driving it (unstable)",
+        ),
+        (R::MeshUnusedVertex, c"a vertex belongs to no triangle"),
+        (
+            R::MeshUvOutOfRange,
+            c"a triangle's (u, v) size does not fit a 32-bit float",
         ),
     ];
     all.iter()

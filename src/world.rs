@@ -391,7 +391,8 @@ pub enum InitError {
         triangle: u32,
         material: u32,
     },
-    /// A material's numbers are unusable (non-finite, non-positive density, not SPD).
+    /// A material's numbers are unusable (non-finite, non-positive density, not SPD), or beyond
+    /// `f32` on this mesh (a lumped mass or an element stiffness overflows or underflows).
     InvalidMaterial {
         material: u32,
     },
@@ -654,11 +655,36 @@ impl<'a> World<'a> {
             let degenerate = InitError::Mesh(MeshError::DegenerateUv { triangle: t as u32 });
             let g = membrane::gradients(uv).ok_or(degenerate)?;
             a.elements[t] = Element::new(uv, &mat.stiffness).ok_or(degenerate)?;
+            // Stiffness, lumped area and mass are f32: a value beyond its range is refused here
+            // rather than becoming an infinite (or zero) mass or force.
+            let e = &a.elements[t];
+            let bad_material = InitError::InvalidMaterial {
+                material: a.tri_material[t],
+            };
+            let bad_uv = InitError::Mesh(MeshError::UvOutOfRange { triangle: t as u32 });
+            if !e.c.iter().all(|v| v.is_finite()) {
+                return Err(bad_material);
+            }
+            let (area3, m) = (g.area / 3.0, mat.density * g.area / 3.0);
+            let grad_ok = e.grad.iter().all(|v| v.is_finite());
+            if !(grad_ok && e.area.is_finite() && (area3 as f32).is_finite() && area3 as f32 > 0.0)
+            {
+                return Err(bad_uv);
+            }
+            if !((m as f32).is_finite() && m as f32 > 0.0) {
+                return Err(bad_material);
+            }
             for &i in &tri {
-                let m = mat.density * g.area / 3.0;
-                a.mass[i as usize] += m as f32;
-                a.area[i as usize] += (g.area / 3.0) as f32;
+                let i = i as usize;
+                a.mass[i] += m as f32;
+                a.area[i] += area3 as f32;
                 total_mass += m;
+                if !a.area[i].is_finite() {
+                    return Err(bad_uv);
+                }
+                if !a.mass[i].is_finite() {
+                    return Err(bad_material);
+                }
             }
             for (p, (ai, bi)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
                 let (i, j) = (tri[ai] as usize, tri[bi] as usize);
@@ -824,7 +850,8 @@ impl<'a> World<'a> {
         Ok(())
     }
 
-    /// Overwrites velocities; wakes the world.
+    /// Overwrites velocities and forgets the solver's warm start (the last step's velocity
+    /// change, meaningless for the new velocities); wakes the world.
     pub fn set_velocities(&mut self, velocities: &[[f32; 3]]) -> Result<(), EditError> {
         if velocities.len() != self.n {
             return Err(EditError::VertexOutOfRange);
@@ -835,6 +862,7 @@ impl<'a> World<'a> {
         for (v, p) in self.a.v.iter_mut().zip(velocities) {
             *v = Vec3A::from(*p);
         }
+        self.a.dv[..self.n].fill(Vec3A::ZERO);
         self.wake();
         Ok(())
     }
@@ -1046,6 +1074,9 @@ impl<'a> World<'a> {
         let n = self.n;
         self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
         self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
+        // The failed solve's Δv (maybe huge or NaN) must not warm-start the next step, or one
+        // bad input breaks every later solve.
+        self.a.dv[..n].fill(Vec3A::ZERO);
         // Rotations are only warm starts; re-derive them from the restored state.
         self.update_rotations(8);
     }

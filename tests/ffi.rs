@@ -162,7 +162,7 @@ fn result_strings_name_every_value() {
             assert!(seen.insert(s), "{v}: {s} is not unique");
         }
     }
-    assert_eq!(seen.len(), 43, "one string per WeftResult value");
+    assert_eq!(seen.len(), 45, "one string per WeftResult value");
     let unknown = unsafe { CStr::from_ptr(weft_result_string(u32::MAX)) };
     assert_eq!(unknown.to_str().unwrap(), "unknown result");
 }
