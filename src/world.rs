@@ -70,13 +70,15 @@ impl Capacity {
         pins: 64,
     };
 
-    /// Capacity for an `n × n`-vertex grid sheet (benchmarks, tests).
+    /// Capacity for an `n × n`-vertex grid sheet (benchmarks, tests). Saturates at `u32::MAX`
+    /// (which no memory block satisfies) instead of overflowing.
     pub const fn grid(n: u32) -> Capacity {
         let s = n.saturating_sub(1);
+        let s2 = s.saturating_mul(s);
         Capacity {
-            vertices: n * n,
-            triangles: 2 * s * s,
-            edges: 3 * s * s + 2 * s,
+            vertices: n.saturating_mul(n),
+            triangles: s2.saturating_mul(2),
+            edges: s2.saturating_mul(3).saturating_add(s.saturating_mul(2)),
             colliders: 8,
             pins: 64,
         }

@@ -734,3 +734,78 @@ fn values_beyond_f32_are_refused_at_init() {
         );
     }
 }
+
+/// The world carves its typed arrays out of the caller's bytes (the crate's one `unsafe` block):
+/// any start address works, the padding is accounted for, and one byte less is refused. Small
+/// enough to run under Miri (`scripts/miri.sh`), which checks the carving for undefined behaviour.
+#[test]
+fn world_memory_at_any_alignment() {
+    let s = Sheet::grid(3, 3, 0.2, 0.2);
+    let mats = [common::isotropic(1000.0, 0.3, 0.2)];
+    let cap = s.capacity();
+    let needed = cap.world_bytes();
+    let mut block = vec![0xA5u8; needed + 16];
+    for offset in [0usize, 1, 3, 8, 15] {
+        let mem = &mut block[offset..offset + needed];
+        let mut w = World::new(
+            mem,
+            cap,
+            &s.def(),
+            Materials::Table(&mats),
+            Settings::default(),
+        )
+        .unwrap_or_else(|e| panic!("offset {offset}: {e:?}"));
+        w.set_pin(0, [0.0, 0.0, 0.0]).unwrap();
+        w.step().unwrap();
+        assert_sane(&w);
+    }
+    let short = &mut block[..needed - 1];
+    assert_eq!(
+        World::new(
+            short,
+            cap,
+            &s.def(),
+            Materials::Table(&mats),
+            Settings::default()
+        )
+        .err(),
+        Some(InitError::MemoryTooSmall)
+    );
+}
+
+/// `Capacity::grid(n)` multiplied in `u32` and panicked on overflow for n ≥ 65536 (a
+/// `weft-bench --grid` argument reaches it); it now saturates, and such a capacity is refused.
+#[test]
+fn huge_grid_capacity_saturates_and_is_refused() {
+    let cap = Capacity::grid(u32::MAX);
+    assert_eq!(cap.vertices, u32::MAX);
+    assert_eq!(cap.triangles, u32::MAX);
+    assert_eq!(cap.edges, u32::MAX);
+    assert!(cap.world_bytes() > 1 << 40);
+    let s = Sheet::grid(3, 3, 0.2, 0.2);
+    let mats = [common::isotropic(1000.0, 0.3, 0.2)];
+    let mut mem = vec![0u8; 4096];
+    assert_eq!(
+        World::new(
+            &mut mem,
+            cap,
+            &s.def(),
+            Materials::Table(&mats),
+            Settings::default()
+        )
+        .err(),
+        Some(InitError::MemoryTooSmall)
+    );
+    assert_eq!(Capacity::grid(16), common_grid_16());
+}
+
+/// What `Capacity::grid(16)` always was (3(n-1)² + 2(n-1) edges).
+fn common_grid_16() -> Capacity {
+    Capacity {
+        vertices: 256,
+        triangles: 450,
+        edges: 705,
+        colliders: 8,
+        pins: 64,
+    }
+}
