@@ -635,7 +635,7 @@ typedef struct WeftSettings {
      */
     float tolerance;
     /**
-     * Linear solver iteration cap per substep, ≥ 1. Default 200.
+     * Linear solver iteration cap per substep, 1..=10000. Default 200.
      */
     uint32_t max_iterations;
     /**
@@ -645,7 +645,7 @@ typedef struct WeftSettings {
      */
     uint32_t per_node_warping;
     /**
-     * Rotation iterations per node per substep (per-node warping only). Default 4.
+     * Rotation iterations per node per substep (per-node warping only), 0..=100. Default 4.
      */
     uint32_t rotation_iterations;
     /**

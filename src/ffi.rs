@@ -332,13 +332,13 @@ pub struct WeftSettings {
     pub drag: f32,
     /// Linear solver relative residual, > 0. Default 1e-4.
     pub tolerance: f32,
-    /// Linear solver iteration cap per substep, ≥ 1. Default 200.
+    /// Linear solver iteration cap per substep, 1..=10000. Default 200.
     pub max_iterations: u32,
     /// 1: warp with per-node rotations (the paper's Eq. 14–17, for comparison only: unstable
     /// for cloth hanging in 3D); 0: per-element rotations. Any other value is
     /// `WEFT_RESULT_INVALID_SETTING`. Default 0.
     pub per_node_warping: u32,
-    /// Rotation iterations per node per substep (per-node warping only). Default 4.
+    /// Rotation iterations per node per substep (per-node warping only), 0..=100. Default 4.
     pub rotation_iterations: u32,
     /// Sleep threshold, m/s, ≥ 0: the cloth sleeps when every vertex is slower than this for
     /// `sleep_frames` steps (needs `WEFT_EFFECT_SLEEP`). Default 0.001.
@@ -712,6 +712,7 @@ fn setting_name(field: &str) -> &'static CStr {
         "drag" => c"drag",
         "tolerance" => c"tolerance",
         "max_iterations" => c"max_iterations",
+        "rotation_iterations" => c"rotation_iterations",
         "sleep_velocity" => c"sleep_velocity",
         "effects" => c"effects",
         _ => c"settings",

@@ -95,7 +95,7 @@ impl Capacity {
     }
     /// Couplings of the block matrix: edges plus hinges (at most one per edge).
     const fn b(&self) -> usize {
-        2 * self.edges as usize
+        (self.edges as usize).saturating_mul(2)
     }
     const fn c(&self) -> usize {
         self.colliders as usize
@@ -115,7 +115,9 @@ macro_rules! arrays {
             /// Bytes a world of this capacity needs (including worst-case alignment padding).
             pub const fn world_bytes(&self) -> usize {
                 let $cap = self;
-                0 $( + slot_bytes::<$ty>($count) )*
+                let mut total = 0usize;
+                $( total = total.saturating_add(slot_bytes::<$ty>($count)); )*
+                total
             }
         }
 
@@ -140,14 +142,14 @@ arrays! { cap;
     triangles: [u32; 3] = [cap.t(); [0; 3]],
     tri_sign: f32 = [cap.t(); 0.0],
     tri_material: u32 = [cap.t(); 0],
-    vt_start: u32 = [cap.v() + 1; 0],
-    vt: u32 = [3 * cap.t(); 0],
-    ring_start: u32 = [cap.v() + 1; 0],
-    ring: u32 = [2 * cap.e(); 0],
+    vt_start: u32 = [cap.v().saturating_add(1); 0],
+    vt: u32 = [cap.t().saturating_mul(3); 0],
+    ring_start: u32 = [cap.v().saturating_add(1); 0],
+    ring: u32 = [cap.e().saturating_mul(2); 0],
     scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
-    row_start: u32 = [cap.v() + 1; 0],
+    row_start: u32 = [cap.v().saturating_add(1); 0],
     cols: u32 = [cap.b(); 0],
     /// Per triangle: its constant element stiffness and gradients, and where its three
     /// vertex pairs sit in the block pattern.
@@ -185,8 +187,11 @@ arrays! { cap;
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
 }
 
+/// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes
+/// (which no block satisfies: init reports `MemoryTooSmall`) instead of overflowing.
 const fn slot_bytes<T>(n: usize) -> usize {
-    n * core::mem::size_of::<T>() + core::mem::align_of::<T>() - 1
+    n.saturating_mul(core::mem::size_of::<T>())
+        .saturating_add(core::mem::align_of::<T>() - 1)
 }
 
 /// Hands out typed, initialized slices from a caller's byte block.
@@ -286,13 +291,14 @@ pub struct Settings {
     /// `drag · area · ((wind - v)·n) n`.
     pub wind: [f32; 3],
     pub drag: f32,
-    /// PCG relative residual and iteration cap.
+    /// PCG relative residual and iteration cap (1..=[`Settings::MAX_ITERATIONS`]).
     pub tolerance: f32,
     pub max_iterations: u32,
     /// Warp with the paper's per-node rotations (Eq. 14–17) instead of per-element frames.
     /// Kept for comparison: it is unstable for cloth hanging in 3D (see README, "Limits").
     pub per_node_warping: bool,
-    /// Rotation extraction iterations per node per substep (warm started), per-node warping.
+    /// Rotation extraction iterations per node per substep (warm started), per-node warping
+    /// (0..=[`Settings::MAX_ROTATION_ITERATIONS`]).
     pub rotation_iterations: u32,
     /// Sleep when every vertex is slower than this (m/s) for `sleep_frames` steps.
     pub sleep_velocity: f32,
@@ -326,6 +332,13 @@ impl Default for Settings {
 }
 
 impl Settings {
+    /// Largest accepted `max_iterations`: far beyond where block-Jacobi PCG stops gaining in
+    /// f32, and it bounds the cost of one step (a caller's `u32::MAX` would mean a step that
+    /// never ends on a system that does not converge).
+    pub const MAX_ITERATIONS: u32 = 10_000;
+    /// Largest accepted `rotation_iterations` (the extraction is warm started; a few suffice).
+    pub const MAX_ROTATION_ITERATIONS: u32 = 100;
+
     /// Checks every field; `Err` names the first bad one.
     pub fn validate(&self) -> Result<(), InitError> {
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
@@ -354,8 +367,11 @@ impl Settings {
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             return bad("tolerance");
         }
-        if self.max_iterations == 0 {
+        if self.max_iterations == 0 || self.max_iterations > Self::MAX_ITERATIONS {
             return bad("max_iterations");
+        }
+        if self.rotation_iterations > Self::MAX_ROTATION_ITERATIONS {
+            return bad("rotation_iterations");
         }
         if !(self.sleep_velocity.is_finite() && self.sleep_velocity >= 0.0) {
             return bad("sleep_velocity");

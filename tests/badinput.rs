@@ -206,10 +206,10 @@ fn wild_settings() -> impl Strategy<Value = Settings> {
             [or_wild(2.0), or_wild(0.0), or_wild(0.0)],
             or_wild(0.3),
             or_wild(d.tolerance),
-            // Bounded: a caller asking for 4 billion iterations gets them; the test stays fast.
-            0u32..300,
+            // Above Settings::MAX_ITERATIONS (10,000) is refused, so u32::MAX is safe to try.
+            prop_oneof![0u32..300, Just(10_001), Just(u32::MAX)],
             any::<bool>(),
-            0u32..12,
+            prop_oneof![0u32..12, Just(101), Just(u32::MAX)],
             or_wild(d.sleep_velocity),
             prop_oneof![0u32..40, Just(u32::MAX)],
         ),

@@ -533,6 +533,16 @@ fn create_checks_strides_buffers_and_settings() {
             "max_iterations",
         ),
         (
+            Box::new(|d| d.settings.max_iterations = 10_001),
+            WeftResult::InvalidSetting,
+            "max_iterations",
+        ),
+        (
+            Box::new(|d| d.settings.rotation_iterations = 101),
+            WeftResult::InvalidSetting,
+            "rotation_iterations",
+        ),
+        (
             Box::new(|d| d.settings.per_node_warping = 2),
             WeftResult::InvalidSetting,
             "per_node_warping",

@@ -478,6 +478,37 @@ fn init_errors_are_specific_and_memory_is_reusable() {
             Err(InitError::InvalidSetting { field: "time_step" })
         );
     }
+    // iteration caps bound the cost of one step
+    for max_iterations in [0, Settings::MAX_ITERATIONS + 1, u32::MAX] {
+        assert_eq!(
+            try_init(
+                &mut mem,
+                &sheet.def(),
+                cap,
+                Settings {
+                    max_iterations,
+                    ..ok
+                }
+            ),
+            Err(InitError::InvalidSetting {
+                field: "max_iterations"
+            })
+        );
+    }
+    assert_eq!(
+        try_init(
+            &mut mem,
+            &sheet.def(),
+            cap,
+            Settings {
+                rotation_iterations: Settings::MAX_ROTATION_ITERATIONS + 1,
+                ..ok
+            }
+        ),
+        Err(InitError::InvalidSetting {
+            field: "rotation_iterations"
+        })
+    );
     let bad_mat = [Material {
         density: -1.0,
         ..anisotropic()
