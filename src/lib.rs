@@ -32,11 +32,13 @@ extern crate std;
 pub mod bending;
 pub mod blob;
 pub mod collide;
+pub mod localize;
 pub mod membrane;
 pub mod mesh;
 pub mod pcg;
 pub mod rotation;
 pub mod sparse;
+pub mod strided;
 pub mod world;
 
 #[cfg(feature = "std")]

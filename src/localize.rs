@@ -1,0 +1,1225 @@
+//! Localization (§6): the fine pattern's own deformation put back on the coarse cloth.
+//!
+//! The coarse [`World`] moves like the homogenized fabric (§5). Localization rebuilds, every
+//! frame, a *fine* mesh whose vertices carry (u, v): the cells' own micro meshes tiled over the
+//! cloth ([`tiled_mesh`]) or any render mesh. A fine vertex at material point `y` lands at
+//!
+//! ```text
+//! x(y) = Σ_k b_k p_k  +  T(y) w(y),     w(y) = -(χ¹(y) Ê1 + χ²(y) Ê2 + χ³(y) Ê3)      (Eq. 20, 23)
+//! ```
+//!
+//! * `b_k` are the barycentric coordinates of `y` in its coarse triangle's rest (u, v) shape and
+//!   `p_k` that triangle's current corners: the affine embedding of Eq. 23 (`x0 + xi0 - x00`).
+//! * `w` is the micro displacement of the cell problem (DESIGN.md: note the minus sign and
+//!   `Ê3 = 2 E12`), with `χ` interpolated in the cell's micro mesh at `y mod cell` and the
+//!   macro strain `Ê` of the coarse cloth at `y`.
+//! * `T` carries the in-plane `w` into 3D: the first two columns of the paper's frame map
+//!   `Q = V V0⁻¹` (Eq. 21–22), i.e. the triangle's deformation gradient `F = ∂x/∂(u,v)`
+//!   (3×2), or its rotation part (below).
+//!
+//! **Strain and frame** ([`StrainMeasure`], per coarse triangle, in [`prepare`]):
+//! * [`StrainMeasure::Green`] is the paper verbatim: the Green strain of Eq. 19,
+//!   `E = (FᵀF − I)/2` (the covariant-basis formula is this, written with edge vectors), with
+//!   `T = F`.
+//! * [`StrainMeasure::Corotated`] (the default) uses the polar decomposition `F = R U`: the
+//!   Biot strain `Ê = U − I` with `T = R`. This is the strain measure of the corotated linear
+//!   FEM that steps the coarse cloth (§5.2), so the micro field is the linear cell solution
+//!   seen in the triangle's rotated frame, `x = R (U y + w)`. For a laminate stretched across
+//!   its layers the layer strains then match the closed form exactly, whereas Green + `F`
+//!   over-shoots the fluctuation by a factor `λ(λ+1)/2` (3 % at 2 % stretch — 14 % of the hard
+//!   layer's small strain); both agree to first order and for rigid motion.
+//!
+//! **No cracks.** `F` (or `R`), `Ê` and the normal are computed per coarse triangle and
+//! area-averaged to the coarse vertices ([`VertexFrame`]); a fine vertex blends its corners'
+//! frames with its barycentric weights, so the field is continuous across coarse edges (the
+//! paper's "we blend the displacements across adjacent unit cells"). Where triangles of
+//! *different* cells meet, `χ` itself would jump; binding blends it too: a coarse vertex holds
+//! the area-weighted mixture of the `χ` of its incident triangles' cells, and a fine vertex the
+//! barycentric blend of its corners' mixtures (a one-triangle-wide transition; where all
+//! incident cells agree this is exactly the cell's `χ`). Binding is a pure function of (u, v):
+//! a point on a coarse edge or vertex belongs to the lowest-index triangle containing it, so
+//! duplicated render vertices along seams get bit-identical bindings and positions.
+//!
+//! **Costs.** Binding does the point location and the `χ` interpolation once ([`Binding`]
+//! stores the triangle, two barycentrics and `χ` at the vertex: 36 bytes). Per frame,
+//! [`prepare`] is O(coarse triangles) and [`localize`] per fine vertex gathers three
+//! [`VertexFrame`]s and does a handful of `Vec3A` multiply-adds; it writes into a caller's
+//! (interleaved) vertex buffer through [`StridedMut`] and can be split into ranges for jobs.
+//! Normals are the barycentric blend of the coarse vertex normals, or recomputed from the fine
+//! mesh ([`recompute_normals`]) where the extra cost is wanted.
+//!
+//! Everything here is no_std, allocation-free and panic-free (checked access throughout).
+//!
+//! Per frame:
+//!
+//! ```ignore
+//! prepare(&world, StrainMeasure::Corotated, &mut frames)?;
+//! localize(&frames, world.triangles(), &bindings, 0, &mut positions, Some(NormalTarget::Interleaved { offset: 12 }))?;
+//! ```
+#![deny(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unreachable
+)]
+
+use core::fmt;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3A;
+
+use crate::blob::{Blob, Cell};
+use crate::strided::{self, StrideError, Strided, StridedMut};
+use crate::world::World;
+
+/// Barycentric slack of point location: a point whose barycentric coordinates in a triangle
+/// are all ≥ `-LOCATE_TOLERANCE` is in it. Points within this (relative) distance of the
+/// cloth's boundary are accepted and extrapolated; points this close to an interior edge go to
+/// the lowest-index triangle of the edge.
+pub const LOCATE_TOLERANCE: f64 = 1e-5;
+
+/// Where a fine vertex sits: its coarse triangle, its barycentric place there, and the
+/// characteristic displacements at its place in the cell. Written by [`bind`]; plain data, so
+/// an engine can store it with its mesh asset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct Binding {
+    /// Index of the coarse triangle in `World::triangles()`.
+    pub triangle: u32,
+    /// Barycentric weights of the triangle's corners 1 and 2; corner 0 has `1 - b1 - b2`.
+    pub bary: [f32; 2],
+    /// `(χ¹u, χ¹v, χ²u, χ²v, χ³u, χ³v)` at the vertex, metres per unit strain.
+    pub chi: [f32; 6],
+}
+
+const _: () = assert!(core::mem::size_of::<Binding>() == 36);
+
+impl Binding {
+    pub const ZERO: Binding = Binding {
+        triangle: 0,
+        bary: [0.0; 2],
+        chi: [0.0; 6],
+    };
+}
+
+/// Why [`bind`] (or the tiled-mesh builders) refused. Nothing is written on error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindError {
+    /// Fine vertex `vertex` lies outside every coarse triangle's (u, v) (or is not finite).
+    OutOfDomain {
+        vertex: u32,
+    },
+    /// An output holds `len` elements where `needed` are required.
+    BufferTooSmall {
+        needed: usize,
+        len: usize,
+    },
+    /// A strided input's stride cannot hold its element.
+    BadStride,
+    /// Coarse triangle `triangle`'s material is not a cell of the blob.
+    CellMissing {
+        triangle: u32,
+    },
+    /// [`bind_to_triangle`] or a tiled mesh named a triangle or cell that does not exist.
+    NoSuchTriangle {
+        triangle: u32,
+    },
+    NoSuchCell {
+        cell: u32,
+    },
+    /// The world has no triangles.
+    EmptyWorld,
+    /// More fine vertices than a `u32` can index.
+    TooLarge,
+}
+
+impl From<StrideError> for BindError {
+    fn from(e: StrideError) -> Self {
+        match e {
+            StrideError::BadStride { .. } => BindError::BadStride,
+            StrideError::BufferTooSmall { needed, len } => {
+                BindError::BufferTooSmall { needed, len }
+            }
+        }
+    }
+}
+
+impl fmt::Display for BindError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            BindError::OutOfDomain { vertex } => {
+                write!(
+                    f,
+                    "fine vertex {vertex} lies outside the coarse cloth's (u, v)"
+                )
+            }
+            BindError::BufferTooSmall { needed, len } => {
+                write!(f, "output holds {len} elements, {needed} needed")
+            }
+            BindError::BadStride => write!(f, "stride cannot hold the element"),
+            BindError::CellMissing { triangle } => {
+                write!(f, "coarse triangle {triangle}'s cell is not in the blob")
+            }
+            BindError::NoSuchTriangle { triangle } => write!(f, "no coarse triangle {triangle}"),
+            BindError::NoSuchCell { cell } => write!(f, "no cell {cell} in the blob"),
+            BindError::EmptyWorld => write!(f, "the world has no triangles"),
+            BindError::TooLarge => write!(f, "too many fine vertices for u32 indices"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for BindError {}
+
+/// Why a per-frame call refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LocalizeError {
+    /// `frames` is shorter than the coarse vertex count, or the positions of
+    /// [`prepare_mesh`] disagree with the rest shape.
+    FrameCount { needed: usize, len: usize },
+    /// `bindings[first .. first + count]` is out of range.
+    Range {
+        first: usize,
+        count: usize,
+        len: usize,
+    },
+    /// Binding `index` names a coarse triangle (or the triangle a vertex) that does not exist.
+    /// Vertices before it have been written.
+    BadBinding { index: usize },
+    /// A coarse or fine triangle names a vertex that does not exist.
+    BadTriangle { triangle: usize },
+    /// The normals buffer holds fewer elements than the positions.
+    BufferTooSmall { needed: usize, len: usize },
+    /// An interleaved normal overlaps the position or does not fit in the record.
+    NormalLayout,
+}
+
+impl fmt::Display for LocalizeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            LocalizeError::FrameCount { needed, len } => {
+                write!(f, "{len} vertex frames given, {needed} needed")
+            }
+            LocalizeError::Range { first, count, len } => write!(
+                f,
+                "bindings {first}..{first}+{count} out of range (there are {len})"
+            ),
+            LocalizeError::BadBinding { index } => write!(f, "binding {index} is invalid"),
+            LocalizeError::BadTriangle { triangle } => {
+                write!(f, "triangle {triangle} names a missing vertex")
+            }
+            LocalizeError::BufferTooSmall { needed, len } => {
+                write!(f, "normals buffer holds {len} elements, {needed} needed")
+            }
+            LocalizeError::NormalLayout => {
+                write!(
+                    f,
+                    "interleaved normal overlaps the position or leaves the record"
+                )
+            }
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for LocalizeError {}
+
+// ---------------------------------------------------------------------------------------------
+// Binding
+// ---------------------------------------------------------------------------------------------
+
+/// Number of [`Binding`]s [`bind`] needs for `fine_uv`: one per fine vertex.
+pub fn bindings_needed(fine_uv: &Strided<'_, 2>) -> usize {
+    fine_uv.count()
+}
+
+/// The coarse cloth's rest (u, v) shape, for point location.
+struct Domain<'w, 'a> {
+    world: &'w World<'a>,
+    rest: &'w [Vec3A],
+    triangles: &'w [[u32; 3]],
+    materials: &'w [u32],
+}
+
+impl<'w, 'a> Domain<'w, 'a> {
+    fn new(world: &'w World<'a>) -> Result<Self, BindError> {
+        let d = Domain {
+            world,
+            rest: world.rest_positions(),
+            triangles: world.triangles(),
+            materials: world.triangle_materials(),
+        };
+        if d.triangles.is_empty() {
+            return Err(BindError::EmptyWorld);
+        }
+        Ok(d)
+    }
+
+    fn uv(&self, v: u32) -> Option<[f64; 2]> {
+        let r = self.rest.get(v as usize)?;
+        Some([f64::from(r.x), f64::from(r.y)])
+    }
+
+    /// Barycentric coordinates of `p` in triangle `t`'s rest (u, v) (either orientation).
+    fn bary(&self, t: usize, p: [f64; 2]) -> Option<[f64; 3]> {
+        let tri = self.triangles.get(t)?;
+        let (a, b, c) = (self.uv(tri[0])?, self.uv(tri[1])?, self.uv(tri[2])?);
+        let (e1, e2, q) = (
+            [b[0] - a[0], b[1] - a[1]],
+            [c[0] - a[0], c[1] - a[1]],
+            [p[0] - a[0], p[1] - a[1]],
+        );
+        let det = e1[0] * e2[1] - e2[0] * e1[1];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let b1 = (q[0] * e2[1] - e2[0] * q[1]) / det;
+        let b2 = (e1[0] * q[1] - q[0] * e1[1]) / det;
+        Some([1.0 - b1 - b2, b1, b2])
+    }
+
+    fn contains(&self, t: usize, p: [f64; 2]) -> bool {
+        self.bary(t, p)
+            .is_some_and(|b| b.iter().all(|&x| x >= -LOCATE_TOLERANCE))
+    }
+
+    /// The triangle across the edge opposite corner `k` of `t`, if any.
+    fn neighbour(&self, t: usize, k: usize) -> Option<usize> {
+        let tri = self.triangles.get(t)?;
+        let a = *tri.get((k + 1) % 3)?;
+        let b = *tri.get((k + 2) % 3)?;
+        self.world
+            .incident_triangles(a as usize)
+            .iter()
+            .map(|&s| s as usize)
+            .find(|&s| s != t && self.triangles.get(s).is_some_and(|ts| ts.contains(&b)))
+    }
+
+    /// The lowest-index triangle containing `p`, starting a walk at `*hint` (updated).
+    fn locate(&self, p: [f64; 2], hint: &mut usize) -> Option<usize> {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return None;
+        }
+        let nt = self.triangles.len();
+        let mut t = if *hint < nt { *hint } else { 0 };
+        let mut found = None;
+        // Walk towards p across the edge of the most negative barycentric coordinate. A walk
+        // can cycle on odd meshes or stop at the boundary (concave outline, separate pieces);
+        // a scan settles those.
+        for _ in 0..nt.min(4096) {
+            let Some(b) = self.bary(t, p) else { break };
+            let (mut k, mut worst) = (0, b[0]);
+            for (i, &x) in b.iter().enumerate() {
+                if x < worst {
+                    (k, worst) = (i, x);
+                }
+            }
+            if worst >= -LOCATE_TOLERANCE {
+                found = Some(t);
+                break;
+            }
+            match self.neighbour(t, k) {
+                Some(s) => t = s,
+                None => break,
+            }
+        }
+        let found = match found {
+            Some(t) => t,
+            None => (0..nt).find(|&t| self.contains(t, p))?,
+        };
+        *hint = found;
+        // Canonical owner: every triangle containing p within the tolerance touches a corner
+        // of `found` (conforming mesh), so the minimum over their one-rings is the global one
+        // and does not depend on where the walk started.
+        let mut best = found;
+        for &c in self.triangles.get(found)? {
+            for &s in self.world.incident_triangles(c as usize) {
+                let s = s as usize;
+                if s < best && self.contains(s, p) {
+                    best = s;
+                }
+            }
+        }
+        Some(best)
+    }
+
+    /// Checks every triangle's cell exists.
+    fn check_cells(&self, blob: &Blob<'_>) -> Result<(), BindError> {
+        let cells = blob.cell_count();
+        for (t, &m) in self.materials.iter().enumerate() {
+            if m as usize >= cells {
+                return Err(BindError::CellMissing { triangle: t as u32 });
+            }
+        }
+        Ok(())
+    }
+
+    /// `χ` at `p` in triangle `t` (barycentrics `b`): the cell's own where every triangle
+    /// around `t`'s corners has `t`'s cell, else the blend of the corners' cell mixtures.
+    fn chi<'b>(
+        &self,
+        blob: &Blob<'b>,
+        cache: &mut CellCache<'b>,
+        t: usize,
+        p: [f64; 2],
+        b: [f64; 3],
+    ) -> Result<[f64; 6], BindError> {
+        let tri = *self
+            .triangles
+            .get(t)
+            .ok_or(BindError::NoSuchTriangle { triangle: t as u32 })?;
+        let own = *self
+            .materials
+            .get(t)
+            .ok_or(BindError::CellMissing { triangle: t as u32 })?;
+        let uniform = tri.iter().all(|&c| {
+            self.world
+                .incident_triangles(c as usize)
+                .iter()
+                .all(|&s| self.materials.get(s as usize) == Some(&own))
+        });
+        let missing = |s: usize| BindError::CellMissing { triangle: s as u32 };
+        if uniform {
+            let cell = cache.get(blob, own).ok_or(missing(t))?;
+            return Ok(chi_in_cell(&cell, p));
+        }
+        let mut out = [0.0f64; 6];
+        for (&c, &bk) in tri.iter().zip(&b) {
+            let (mut sum, mut weight) = ([0.0f64; 6], 0.0f64);
+            for &s in self.world.incident_triangles(c as usize) {
+                let s = s as usize;
+                let m = *self.materials.get(s).ok_or(missing(s))?;
+                let area = self.area(s);
+                let cell = cache.get(blob, m).ok_or(missing(s))?;
+                let x = chi_in_cell(&cell, p);
+                for (o, v) in sum.iter_mut().zip(x) {
+                    *o += area * v;
+                }
+                weight += area;
+            }
+            if weight > 0.0 {
+                for (o, v) in out.iter_mut().zip(sum) {
+                    *o += bk * v / weight;
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    fn area(&self, t: usize) -> f64 {
+        let Some(tri) = self.triangles.get(t) else {
+            return 0.0;
+        };
+        match (self.uv(tri[0]), self.uv(tri[1]), self.uv(tri[2])) {
+            (Some(a), Some(b), Some(c)) => {
+                0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs()
+            }
+            _ => 0.0,
+        }
+    }
+
+    fn binding<'b>(
+        &self,
+        blob: &Blob<'b>,
+        cache: &mut CellCache<'b>,
+        t: usize,
+        p: [f64; 2],
+    ) -> Result<Binding, BindError> {
+        let b = self
+            .bary(t, p)
+            .ok_or(BindError::NoSuchTriangle { triangle: t as u32 })?;
+        let chi = self.chi(blob, cache, t, p, b)?;
+        Ok(Binding {
+            triangle: t as u32,
+            bary: [b[1] as f32, b[2] as f32],
+            chi: chi.map(|x| x as f32),
+        })
+    }
+}
+
+/// The last cell looked up (re-slicing a cell out of the blob is cheap but not free).
+struct CellCache<'b> {
+    last: Option<(u32, Cell<'b>)>,
+}
+
+impl<'b> CellCache<'b> {
+    fn get(&mut self, blob: &Blob<'b>, i: u32) -> Option<Cell<'b>> {
+        if let Some((j, c)) = self.last {
+            if j == i {
+                return Some(c);
+            }
+        }
+        let c = blob.cell(i as usize)?;
+        self.last = Some((i, c));
+        Some(c)
+    }
+}
+
+/// `χ` at material point `p` of the periodic cell tiling the (u, v) plane from the origin:
+/// `y = p mod (width, height)`, located in the structured micro mesh (square `(i, j)`, lower
+/// triangle `[ll, lr, ur]` below the diagonal, upper `[ll, ur, ul]` above, indices wrapped) and
+/// interpolated linearly (P1, as the cell problem solved it).
+fn chi_in_cell(cell: &Cell<'_>, p: [f64; 2]) -> [f64; 6] {
+    let (nu, nv) = (cell.nu() as usize, cell.nv() as usize);
+    let (w, h) = (cell.width(), cell.height());
+    if nu == 0 || nv == 0 || !(w > 0.0 && h > 0.0) {
+        return [0.0; 6];
+    }
+    // lattice coordinates in [0, n)
+    let lattice = |x: f64, period: f64, n: usize| -> (usize, f64) {
+        let y = x - period * libm::floor(x / period);
+        let q = y / period * n as f64;
+        let i = libm::floor(q);
+        let (i, f) = if i.is_finite() && i >= 0.0 {
+            (i as usize, q - i)
+        } else {
+            (0, 0.0)
+        };
+        if i >= n {
+            (n - 1, 1.0) // y rounded up to the period
+        } else {
+            (i, f.clamp(0.0, 1.0))
+        }
+    };
+    let (i, s) = lattice(p[0], w, nu);
+    let (j, t) = lattice(p[1], h, nv);
+    let (i1, j1) = ((i + 1) % nu, (j + 1) % nv);
+    let node = |a: usize, b: usize| b * nu + a;
+    let (ll, lr, ur, ul) = (node(i, j), node(i1, j), node(i1, j1), node(i, j1));
+    let corners = if s >= t {
+        [(ll, 1.0 - s), (lr, s - t), (ur, t)]
+    } else {
+        [(ll, 1.0 - t), (ur, s), (ul, t - s)]
+    };
+    let mut out = [0.0f64; 6];
+    for (n, wgt) in corners {
+        if let Some(c) = cell.chi.get(n) {
+            for (o, &v) in out.iter_mut().zip(c) {
+                *o += wgt * f64::from(v);
+            }
+        }
+    }
+    out
+}
+
+/// Binds every fine vertex `fine_uv[i]` (material coordinates (u, v), metres) to the coarse
+/// cloth: `out[i]` gets its coarse triangle, barycentric place and `χ`. `out` needs
+/// [`bindings_needed`] entries (extra ones are left alone).
+///
+/// Point location walks from the previous vertex's triangle across edges (fast for coherent
+/// vertex orders: a tiled or scanned mesh costs a few steps per vertex) and falls back to a
+/// scan; a point on an edge or vertex (within [`LOCATE_TOLERANCE`]) belongs to the
+/// lowest-index triangle containing it, so the result is a pure function of (u, v). The coarse
+/// (u, v) layout is assumed not to overlap itself.
+///
+/// Errors (checked before anything is written, so `out` is untouched on error):
+/// `BufferTooSmall`, `CellMissing` (lowest triangle whose material is not a blob cell),
+/// `OutOfDomain` (lowest fine vertex outside the cloth), `EmptyWorld`, `TooLarge`.
+pub fn bind(
+    world: &World<'_>,
+    blob: &Blob<'_>,
+    fine_uv: &Strided<'_, 2>,
+    out: &mut [Binding],
+) -> Result<(), BindError> {
+    let n = fine_uv.count();
+    if out.len() < n {
+        return Err(BindError::BufferTooSmall {
+            needed: n,
+            len: out.len(),
+        });
+    }
+    if u32::try_from(n).is_err() {
+        return Err(BindError::TooLarge);
+    }
+    let d = Domain::new(world)?;
+    d.check_cells(blob)?;
+    let uv = |i: usize| fine_uv.get(i).map(|p| [f64::from(p[0]), f64::from(p[1])]);
+    // Pass 1: every vertex must be in the domain. Nothing is written yet.
+    let mut hint = 0;
+    for i in 0..n {
+        let outside = BindError::OutOfDomain { vertex: i as u32 };
+        let p = uv(i).ok_or(outside)?;
+        d.locate(p, &mut hint).ok_or(outside)?;
+    }
+    // Pass 2: locate again (deterministic, so it succeeds) and write.
+    let mut hint = 0;
+    let mut cache = CellCache { last: None };
+    for (i, o) in out.iter_mut().enumerate().take(n) {
+        let outside = BindError::OutOfDomain { vertex: i as u32 };
+        let p = uv(i).ok_or(outside)?;
+        let t = d.locate(p, &mut hint).ok_or(outside)?;
+        *o = d.binding(blob, &mut cache, t, p)?;
+    }
+    Ok(())
+}
+
+/// Binds one point to a given coarse triangle, without point location or domain check (the
+/// barycentrics may lie outside [0, 1]). For render meshes built per coarse triangle, and for
+/// checking continuity across coarse edges. A non-finite `uv` is `OutOfDomain { vertex: 0 }`.
+pub fn bind_to_triangle(
+    world: &World<'_>,
+    blob: &Blob<'_>,
+    triangle: u32,
+    uv: [f32; 2],
+) -> Result<Binding, BindError> {
+    let d = Domain::new(world)?;
+    let t = triangle as usize;
+    if t >= d.triangles.len() {
+        return Err(BindError::NoSuchTriangle { triangle });
+    }
+    d.check_cells(blob)?;
+    let p = [f64::from(uv[0]), f64::from(uv[1])];
+    if !(p[0].is_finite() && p[1].is_finite()) {
+        return Err(BindError::OutOfDomain { vertex: 0 });
+    }
+    d.binding(blob, &mut CellCache { last: None }, t, p)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tiled micro meshes
+// ---------------------------------------------------------------------------------------------
+
+/// One axis of a tiled mesh: lattice lines `lo..=hi` of spacing `h`, clamped to `[min, max]`.
+#[derive(Clone, Copy)]
+struct Axis {
+    lo: i64,
+    hi: i64,
+    h: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Axis {
+    fn new(min: f64, max: f64, h: f64) -> Option<Axis> {
+        // Snap to a lattice line within 1e-4 of a square, so an edge that is a multiple of
+        // the spacing up to rounding does not leave a sliver column.
+        let snap = |q: f64, up: bool| {
+            let r = libm::round(q);
+            if (q - r).abs() <= 1e-4 {
+                r
+            } else if up {
+                libm::ceil(q)
+            } else {
+                libm::floor(q)
+            }
+        };
+        let (lo, hi) = (snap(min / h, false), snap(max / h, true));
+        let ok = lo.is_finite() && hi.is_finite() && hi > lo && (hi - lo) < 1e9;
+        ok.then_some(Axis {
+            lo: lo as i64,
+            hi: hi as i64,
+            h,
+            min,
+            max,
+        })
+    }
+    fn nodes(&self) -> usize {
+        (self.hi - self.lo + 1) as usize
+    }
+    fn at(&self, k: usize) -> f32 {
+        ((self.lo + k as i64) as f64 * self.h).clamp(self.min, self.max) as f32
+    }
+    /// Index of the cell square that lattice square `k` is, modulo `n`.
+    fn wrap(&self, k: usize, n: usize) -> usize {
+        (self.lo + k as i64).rem_euclid(n.max(1) as i64) as usize
+    }
+}
+
+fn tiling<'b>(
+    world: &World<'_>,
+    blob: &Blob<'b>,
+    cell: u32,
+) -> Result<(Cell<'b>, Axis, Axis), BindError> {
+    let c = blob
+        .cell(cell as usize)
+        .ok_or(BindError::NoSuchCell { cell })?;
+    if world.triangles().is_empty() {
+        return Err(BindError::EmptyWorld);
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for r in world.rest_positions() {
+        for (k, x) in [f64::from(r.x), f64::from(r.y)].into_iter().enumerate() {
+            if let (Some(l), Some(h)) = (lo.get_mut(k), hi.get_mut(k)) {
+                *l = l.min(x);
+                *h = h.max(x);
+            }
+        }
+    }
+    let h = c.width() / f64::from(c.nu().max(1));
+    let u = Axis::new(lo[0], hi[0], h).ok_or(BindError::TooLarge)?;
+    let v = Axis::new(lo[1], hi[1], h).ok_or(BindError::TooLarge)?;
+    let nodes = u
+        .nodes()
+        .checked_mul(v.nodes())
+        .ok_or(BindError::TooLarge)?;
+    if u32::try_from(nodes).is_err() {
+        return Err(BindError::TooLarge);
+    }
+    Ok((c, u, v))
+}
+
+/// Vertex and triangle counts of [`tiled_mesh`].
+pub fn tiled_mesh_counts(
+    world: &World<'_>,
+    blob: &Blob<'_>,
+    cell: u32,
+) -> Result<(usize, usize), BindError> {
+    let (_, u, v) = tiling(world, blob, cell)?;
+    Ok((u.nodes() * v.nodes(), 2 * (u.nodes() - 1) * (v.nodes() - 1)))
+}
+
+/// Cell `cell`'s micro mesh tiled over the (u, v) bounding box of the coarse cloth, as a
+/// render mesh to [`bind`]: a non-periodic grid on the cell's lattice (node spacing
+/// `h = width / nu`, lattice anchored at the origin as the cells are), the outer columns and
+/// rows clamped to the box, node `(i, j)` at index `j·nx + i`, square `(i, j)` split into
+/// `[ll, lr, ur]`, `[ll, ur, ul]` (counter-clockwise, docs/ARCHITECTURE.md). `materials_out`,
+/// if given, receives each triangle's material (index into the cell's materials).
+///
+/// The box is the cloth only for a rectangular cloth; for other outlines the caller drops the
+/// vertices outside (binding reports them as `OutOfDomain`). Returns the counts written.
+pub fn tiled_mesh(
+    world: &World<'_>,
+    blob: &Blob<'_>,
+    cell: u32,
+    uv_out: &mut [[f32; 2]],
+    triangles_out: &mut [[u32; 3]],
+    materials_out: Option<&mut [u32]>,
+) -> Result<(usize, usize), BindError> {
+    let (c, u, v) = tiling(world, blob, cell)?;
+    let (nx, ny) = (u.nodes(), v.nodes());
+    let (nvert, ntri) = (nx * ny, 2 * (nx - 1) * (ny - 1));
+    let small = |needed, len| BindError::BufferTooSmall { needed, len };
+    if uv_out.len() < nvert {
+        return Err(small(nvert, uv_out.len()));
+    }
+    if triangles_out.len() < ntri {
+        return Err(small(ntri, triangles_out.len()));
+    }
+    if let Some(m) = &materials_out {
+        if m.len() < ntri {
+            return Err(small(ntri, m.len()));
+        }
+    }
+    for (k, o) in uv_out.iter_mut().take(nvert).enumerate() {
+        *o = [u.at(k % nx), v.at(k / nx)];
+    }
+    let id = |i: usize, j: usize| (j * nx + i) as u32;
+    let mut tris = triangles_out.iter_mut();
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            let (ll, lr, ur, ul) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if let (Some(a), Some(b)) = (tris.next(), tris.next()) {
+                *a = [ll, lr, ur];
+                *b = [ll, ur, ul];
+            }
+        }
+    }
+    if let Some(m) = materials_out {
+        let nu = c.nu() as usize;
+        let nv = c.nv() as usize;
+        let mut out = m.iter_mut();
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let square = v.wrap(j, nv) * nu + u.wrap(i, nu);
+                let mat = c.tri_material.get(2 * square).copied().unwrap_or(0);
+                for o in out.by_ref().take(2) {
+                    *o = mat;
+                }
+            }
+        }
+    }
+    Ok((nvert, ntri))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Per frame
+// ---------------------------------------------------------------------------------------------
+
+/// How [`prepare`] measures a coarse triangle's strain and which frame carries `w` into 3D
+/// (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StrainMeasure {
+    /// Polar decomposition `F = R U`: Biot strain `U − I`, frame `R`. Consistent with the
+    /// corotated linear FEM of the coarse step.
+    #[default]
+    Corotated,
+    /// The paper verbatim: Green strain `(FᵀF − I)/2` (Eq. 19), frame `F` (Eq. 21–22).
+    Green,
+}
+
+/// A coarse vertex's share of the deformation: the area-weighted average of its incident
+/// triangles', so that the barycentric blend in [`localize`] is continuous.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexFrame {
+    /// Current position.
+    pub p: Vec3A,
+    /// The frame carrying `(u, v)` displacements into 3D: columns `∂x/∂u`, `∂x/∂v` of `F`
+    /// ([`StrainMeasure::Green`]) or of its rotation `R` ([`StrainMeasure::Corotated`]).
+    pub f1: Vec3A,
+    pub f2: Vec3A,
+    /// Macro strain `Ê = [E11, E22, 2 E12]`.
+    pub strain: Vec3A,
+    /// Unit normal (area-weighted, oriented as `∂x/∂u × ∂x/∂v`: +z for a cloth at rest).
+    pub normal: Vec3A,
+}
+
+impl VertexFrame {
+    /// The frame of a vertex at the origin of a cloth at rest.
+    pub const REST: VertexFrame = VertexFrame {
+        p: Vec3A::ZERO,
+        f1: Vec3A::X,
+        f2: Vec3A::Y,
+        strain: Vec3A::ZERO,
+        normal: Vec3A::Z,
+    };
+}
+
+/// Per-vertex frames of the world's current shape: `frames[..world.vertex_count()]`.
+pub fn prepare(
+    world: &World<'_>,
+    measure: StrainMeasure,
+    frames: &mut [VertexFrame],
+) -> Result<(), LocalizeError> {
+    prepare_mesh(
+        world.rest_positions(),
+        world.positions(),
+        world.triangles(),
+        measure,
+        frames,
+    )
+}
+
+/// [`prepare`] on plain slices: rest positions `(u, v, 0)`, current positions, triangles.
+///
+/// Per triangle (Eq. 19, 21–22), with rest edges `D = [uv1 − uv0, uv2 − uv0]` (2×2) and
+/// current edges `X = [x1 − x0, x2 − x0]` (3×2): `F = X D⁻¹`, then the strain and frame of
+/// `measure`, and `A (∂x/∂u × ∂x/∂v)` (`A` the rest area) for the normal, which is the
+/// 3D-area-weighted normal oriented by the (u, v) winding. Each is averaged over a vertex's
+/// triangles with weight `A`. A triangle whose `F` is not finite or, for the corotated
+/// measure, is collapsed (no rotation defined) is skipped; a vertex without usable triangles
+/// keeps the rest frame at its current position.
+pub fn prepare_mesh(
+    rest: &[Vec3A],
+    positions: &[Vec3A],
+    triangles: &[[u32; 3]],
+    measure: StrainMeasure,
+    frames: &mut [VertexFrame],
+) -> Result<(), LocalizeError> {
+    let n = positions.len();
+    if rest.len() != n {
+        return Err(LocalizeError::FrameCount {
+            needed: n,
+            len: rest.len(),
+        });
+    }
+    let Some(frames) = frames.get_mut(..n) else {
+        return Err(LocalizeError::FrameCount {
+            needed: n,
+            len: frames.len(),
+        });
+    };
+    if let Some(t) = triangles
+        .iter()
+        .position(|t| t.iter().any(|&v| v as usize >= n))
+    {
+        return Err(LocalizeError::BadTriangle { triangle: t });
+    }
+    // Accumulate weighted sums; `p.x` holds the weight until the end.
+    let zero = VertexFrame {
+        p: Vec3A::ZERO,
+        f1: Vec3A::ZERO,
+        f2: Vec3A::ZERO,
+        strain: Vec3A::ZERO,
+        normal: Vec3A::ZERO,
+    };
+    frames.fill(zero);
+    for tri in triangles {
+        let [Some(&r0), Some(&r1), Some(&r2)] = tri.map(|v| rest.get(v as usize)) else {
+            continue;
+        };
+        let [Some(&x0), Some(&x1), Some(&x2)] = tri.map(|v| positions.get(v as usize)) else {
+            continue;
+        };
+        let Some(t) = triangle_frame([r0, r1, r2], [x0, x1, x2], measure) else {
+            continue;
+        };
+        for &v in tri {
+            if let Some(f) = frames.get_mut(v as usize) {
+                f.p.x += t.area;
+                f.f1 += t.f1 * t.area;
+                f.f2 += t.f2 * t.area;
+                f.strain += t.strain * t.area;
+                f.normal += t.normal * t.area;
+            }
+        }
+    }
+    for (f, &x) in frames.iter_mut().zip(positions) {
+        let w = f.p.x;
+        if w > 0.0 && w.is_finite() {
+            let inv = 1.0 / w;
+            f.f1 *= inv;
+            f.f2 *= inv;
+            f.strain *= inv;
+            f.normal = f
+                .normal
+                .normalize_or(f.f1.cross(f.f2).normalize_or(Vec3A::Z));
+        } else {
+            *f = VertexFrame::REST;
+        }
+        f.p = x;
+    }
+    Ok(())
+}
+
+/// One coarse triangle's deformation.
+struct TriangleFrame {
+    area: f32,
+    f1: Vec3A,
+    f2: Vec3A,
+    strain: Vec3A,
+    /// `∂x/∂u × ∂x/∂v` of `F` (its length is the area ratio).
+    normal: Vec3A,
+}
+
+fn triangle_frame(r: [Vec3A; 3], x: [Vec3A; 3], measure: StrainMeasure) -> Option<TriangleFrame> {
+    let (d1, d2) = (r[1] - r[0], r[2] - r[0]);
+    let det = d1.x * d2.y - d2.x * d1.y;
+    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+    // F = X D⁻¹ with D⁻¹ = [[d2.y, -d2.x], [-d1.y, d1.x]] / det
+    let g1 = (e1 * d2.y - e2 * d1.y) / det;
+    let g2 = (e2 * d1.x - e1 * d2.x) / det;
+    if !(det != 0.0 && g1.is_finite() && g2.is_finite()) {
+        return None;
+    }
+    let (c11, c22, c12) = (g1.dot(g1), g2.dot(g2), g1.dot(g2));
+    let normal = g1.cross(g2);
+    let (f1, f2, strain) = match measure {
+        // Eq. 19: E = (FᵀF − I)/2, engineering shear 2 E12 = c12.
+        StrainMeasure::Green => (
+            g1,
+            g2,
+            Vec3A::new(0.5 * (c11 - 1.0), 0.5 * (c22 - 1.0), c12),
+        ),
+        // U = sqrt(C) for a 2×2 SPD C: (C + s I) / t with s = sqrt(det C) = |g1 × g2|,
+        // t = sqrt(tr C + 2 s); R = F U⁻¹ with U⁻¹ = adj(U) / s.
+        StrainMeasure::Corotated => {
+            let s = normal.length();
+            let t = libm::sqrtf(c11 + c22 + 2.0 * s);
+            if !(s > 1e-12 * (c11 + c22) && t > 0.0 && t.is_finite()) {
+                return None;
+            }
+            let (u11, u22, u12) = ((c11 + s) / t, (c22 + s) / t, c12 / t);
+            let r1 = (g1 * u22 - g2 * u12) / s;
+            let r2 = (g2 * u11 - g1 * u12) / s;
+            (r1, r2, Vec3A::new(u11 - 1.0, u22 - 1.0, 2.0 * u12))
+        }
+    };
+    Some(TriangleFrame {
+        area: 0.5 * det.abs(),
+        f1,
+        f2,
+        strain,
+        normal,
+    })
+}
+
+/// Where [`localize`] and [`recompute_normals`] put normals.
+#[derive(Debug)]
+pub enum NormalTarget<'n, 'b> {
+    /// In the positions' own records, at byte `offset` of each record (an interleaved vertex
+    /// buffer; must not overlap the position and must fit in the stride).
+    Interleaved { offset: usize },
+    /// In a buffer of their own, element `i` with position `i`.
+    Buffer(&'n mut StridedMut<'b, 3>),
+}
+
+/// The three corner frames of a binding's triangle.
+#[inline(always)]
+fn corners<'f>(
+    frames: &'f [VertexFrame],
+    triangles: &[[u32; 3]],
+    b: &Binding,
+) -> Option<[&'f VertexFrame; 3]> {
+    let t = triangles.get(b.triangle as usize)?;
+    Some([
+        frames.get(t[0] as usize)?,
+        frames.get(t[1] as usize)?,
+        frames.get(t[2] as usize)?,
+    ])
+}
+
+/// Eq. 20 and 23 with blended frames: `Σ b_k p_k + T w`, `w = -(χ¹Ê1 + χ²Ê2 + χ³Ê3)`.
+#[inline(always)]
+fn position(c: [&VertexFrame; 3], b: &Binding) -> Vec3A {
+    let [b1, b2] = b.bary;
+    let b0 = 1.0 - b1 - b2;
+    let [c0, c1, c2] = c;
+    // positions as corner 0 plus edge offsets: rounding relative to the triangle, not to |p|
+    let p = c0.p + (c1.p - c0.p) * b1 + (c2.p - c0.p) * b2;
+    let f1 = c0.f1 * b0 + c1.f1 * b1 + c2.f1 * b2;
+    let f2 = c0.f2 * b0 + c1.f2 * b1 + c2.f2 * b2;
+    let e = c0.strain * b0 + c1.strain * b1 + c2.strain * b2;
+    let [x1u, x1v, x2u, x2v, x3u, x3v] = b.chi;
+    let wu = -(x1u * e.x + x2u * e.y + x3u * e.z);
+    let wv = -(x1v * e.x + x2v * e.y + x3v * e.z);
+    p + f1 * wu + f2 * wv
+}
+
+/// Barycentric blend of the corner normals, normalized.
+#[inline(always)]
+fn normal(c: [&VertexFrame; 3], b: &Binding) -> Vec3A {
+    let [b1, b2] = b.bary;
+    let b0 = 1.0 - b1 - b2;
+    let [c0, c1, c2] = c;
+    (c0.normal * b0 + c1.normal * b1 + c2.normal * b2).normalize_or(c0.normal)
+}
+
+#[inline(always)]
+fn put(rec: &mut [u8], at: usize, v: Vec3A) -> bool {
+    strided::write::<3>(rec, at, v.to_array())
+}
+
+/// Localizes fine vertices `bindings[first .. first + positions.count()]`: element `i` of
+/// `positions` (and of the normals, if asked) gets binding `first + i`. `frames` come from
+/// [`prepare`] and `triangles` are the coarse ones (`World::triangles()`).
+///
+/// Position (Eq. 20–23): `x = Σ b_k p_k + T w`, with `T = Σ b_k T_k`, `Ê = Σ b_k Ê_k` the
+/// blended frame and strain and `w = −(χ¹Ê1 + χ²Ê2 + χ³Ê3)`. Normal: `normalize(Σ b_k n_k)`.
+///
+/// Disjoint ranges can run as separate jobs ([`StridedMut::split_at`] splits a vertex buffer).
+/// Errors: `Range` and `NormalLayout` / `BufferTooSmall` before anything is written;
+/// `BadBinding` (a binding not made for these triangles) stops at that vertex.
+pub fn localize(
+    frames: &[VertexFrame],
+    triangles: &[[u32; 3]],
+    bindings: &[Binding],
+    first: usize,
+    positions: &mut StridedMut<'_, 3>,
+    normals: Option<NormalTarget<'_, '_>>,
+) -> Result<(), LocalizeError> {
+    let count = positions.count();
+    let range = LocalizeError::Range {
+        first,
+        count,
+        len: bindings.len(),
+    };
+    let end = first.checked_add(count).ok_or(range)?;
+    let bindings = bindings.get(first..end).ok_or(range)?;
+    let (bytes, stride, po, _) = positions.parts_mut();
+    let bad = |i: usize| LocalizeError::BadBinding { index: first + i };
+    match normals {
+        // Record offsets cannot overflow: the constructor checked (count-1)·stride + po + 12
+        // against the buffer (and check_interleaved the same for the normal).
+        None => {
+            for (i, b) in bindings.iter().enumerate() {
+                let c = corners(frames, triangles, b).ok_or(bad(i))?;
+                put(bytes, po + i * stride, position(c, b));
+            }
+        }
+        Some(NormalTarget::Interleaved { offset: no }) => {
+            check_interleaved(bytes.len(), stride, po, no, count)?;
+            for (i, b) in bindings.iter().enumerate() {
+                let c = corners(frames, triangles, b).ok_or(bad(i))?;
+                put(bytes, po + i * stride, position(c, b));
+                put(bytes, no + i * stride, normal(c, b));
+            }
+        }
+        Some(NormalTarget::Buffer(nb)) => {
+            if nb.count() < count {
+                return Err(LocalizeError::BufferTooSmall {
+                    needed: count,
+                    len: nb.count(),
+                });
+            }
+            let (nbytes, nstride, no, _) = nb.parts_mut();
+            let records = bytes.chunks_mut(stride).zip(nbytes.chunks_mut(nstride));
+            for (i, ((rec, nrec), b)) in records.zip(bindings).enumerate() {
+                let c = corners(frames, triangles, b).ok_or(bad(i))?;
+                put(rec, po, position(c, b));
+                put(nrec, no, normal(c, b));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// An interleaved normal at byte `no` of records that hold the position at `po`: inside the
+/// record, not overlapping the position, inside the buffer for the last record.
+fn check_interleaved(
+    len: usize,
+    stride: usize,
+    po: usize,
+    no: usize,
+    count: usize,
+) -> Result<(), LocalizeError> {
+    let disjoint = no.checked_add(12).is_some_and(|e| e <= po) || po + 12 <= no;
+    let needed =
+        strided::bytes_needed(stride, no, 12, count).map_err(|_| LocalizeError::NormalLayout)?;
+    if !disjoint || len < needed {
+        return Err(LocalizeError::NormalLayout);
+    }
+    Ok(())
+}
+
+/// Recomputes normals from the fine mesh itself ("exact" normals): per fine vertex the
+/// normalized sum of its fine triangles' `(b − a) × (c − a)` (area-weighted, oriented by the
+/// triangles' winding; counter-clockwise in (u, v), as [`tiled_mesh`] makes them, gives the
+/// same side as the blended normals). A vertex whose triangles are all collapsed keeps the
+/// normal it had (or +z). `positions` is `&mut` only so that an interleaved normal can be
+/// written next to it; positions are not changed.
+pub fn recompute_normals(
+    fine_triangles: &[[u32; 3]],
+    positions: &mut StridedMut<'_, 3>,
+    normals: NormalTarget<'_, '_>,
+) -> Result<(), LocalizeError> {
+    let n = positions.count();
+    if let Some(t) = fine_triangles
+        .iter()
+        .position(|t| t.iter().any(|&v| v as usize >= n))
+    {
+        return Err(LocalizeError::BadTriangle { triangle: t });
+    }
+    let mut io = match normals {
+        NormalTarget::Interleaved { offset } => {
+            let (bytes, stride, po, _) = positions.parts_mut();
+            check_interleaved(bytes.len(), stride, po, offset, n)?;
+            NormalIo::Interleaved {
+                pos: positions,
+                offset,
+            }
+        }
+        NormalTarget::Buffer(nb) => {
+            if nb.count() < n {
+                return Err(LocalizeError::BufferTooSmall {
+                    needed: n,
+                    len: nb.count(),
+                });
+            }
+            NormalIo::Separate {
+                pos: positions,
+                nrm: nb,
+            }
+        }
+    };
+    let face = |io: &NormalIo<'_, '_, '_, '_>, t: &[u32; 3]| -> Option<Vec3A> {
+        let [a, b, c] = [
+            io.position(t[0] as usize)?,
+            io.position(t[1] as usize)?,
+            io.position(t[2] as usize)?,
+        ];
+        let f = (b - a).cross(c - a);
+        f.is_finite().then_some(f)
+    };
+    // Scale for the seed that keeps a collapsed vertex's previous normal (as
+    // rotation::vertex_normals does for the coarse mesh).
+    let largest = fine_triangles
+        .iter()
+        .filter_map(|t| face(&io, t))
+        .fold(0.0f32, |m, f| m.max(f.length()));
+    let tau = (1e-6 * largest).max(1e-18);
+    for i in 0..n {
+        let prev = io.normal(i).unwrap_or(Vec3A::ZERO);
+        let l2 = prev.length_squared();
+        let seed = if prev.is_finite() && (0.25..4.0).contains(&l2) {
+            prev / libm::sqrtf(l2)
+        } else {
+            Vec3A::Z
+        };
+        io.set_normal(i, seed * tau);
+    }
+    for t in fine_triangles {
+        let Some(f) = face(&io, t) else { continue };
+        for &v in t {
+            if let Some(m) = io.normal(v as usize) {
+                io.set_normal(v as usize, m + f);
+            }
+        }
+    }
+    for i in 0..n {
+        let m = io.normal(i).unwrap_or(Vec3A::Z);
+        io.set_normal(i, m.normalize_or(Vec3A::Z));
+    }
+    Ok(())
+}
+
+/// Positions and normals for [`recompute_normals`], interleaved or separate.
+enum NormalIo<'s, 'a, 'n, 'b> {
+    Interleaved {
+        pos: &'s mut StridedMut<'a, 3>,
+        offset: usize,
+    },
+    Separate {
+        pos: &'s mut StridedMut<'a, 3>,
+        nrm: &'n mut StridedMut<'b, 3>,
+    },
+}
+
+impl NormalIo<'_, '_, '_, '_> {
+    fn position(&self, i: usize) -> Option<Vec3A> {
+        match self {
+            NormalIo::Interleaved { pos, .. } | NormalIo::Separate { pos, .. } => {
+                pos.get(i).map(Vec3A::from)
+            }
+        }
+    }
+    fn normal(&self, i: usize) -> Option<Vec3A> {
+        match self {
+            NormalIo::Interleaved { pos, offset } => pos.read_at::<3>(i, *offset),
+            NormalIo::Separate { nrm, .. } => nrm.get(i),
+        }
+        .map(Vec3A::from)
+    }
+    fn set_normal(&mut self, i: usize, v: Vec3A) {
+        match self {
+            NormalIo::Interleaved { pos, offset } => pos.write_at::<3>(i, *offset, v.to_array()),
+            NormalIo::Separate { nrm, .. } => nrm.set(i, v.to_array()),
+        };
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polar_strain_of_a_stretch_and_rotation() {
+        let r = [Vec3A::ZERO, Vec3A::X, Vec3A::Y];
+        let rot = glam::Mat3A::from_rotation_z(0.7) * glam::Mat3A::from_rotation_x(1.1);
+        let x = r.map(|p| rot * Vec3A::new(p.x * 1.1, p.y * 0.95, 0.0) + Vec3A::ONE);
+        let t = triangle_frame(r, x, StrainMeasure::Corotated).unwrap();
+        assert!((t.strain - Vec3A::new(0.1, -0.05, 0.0)).length() < 1e-6);
+        assert!((t.f1 - rot * Vec3A::X).length() < 1e-6);
+        assert!((t.f2 - rot * Vec3A::Y).length() < 1e-6);
+        let g = triangle_frame(r, x, StrainMeasure::Green).unwrap();
+        let green = Vec3A::new(0.5 * (1.21 - 1.0), 0.5 * (0.9025 - 1.0), 0.0);
+        assert!((g.strain - green).length() < 1e-6);
+        assert!((g.f1 - rot * Vec3A::X * 1.1).length() < 1e-6);
+        // shear: U symmetric, R = F U⁻¹ orthonormal
+        let x = r.map(|p| rot * Vec3A::new(p.x + 0.3 * p.y, p.y, 0.0));
+        let t = triangle_frame(r, x, StrainMeasure::Corotated).unwrap();
+        assert!((t.f1.length() - 1.0).abs() < 1e-6 && (t.f2.length() - 1.0).abs() < 1e-6);
+        assert!(t.f1.dot(t.f2).abs() < 1e-6);
+        // clockwise (u, v) winding gives the same frame
+        let rc = [r[0], r[2], r[1]];
+        let xc = [x[0], x[2], x[1]];
+        let c = triangle_frame(rc, xc, StrainMeasure::Corotated).unwrap();
+        assert!((c.f1 - t.f1).length() < 1e-6 && (c.strain - t.strain).length() < 1e-6);
+        assert!((c.normal - t.normal).length() < 1e-6);
+        // collapsed
+        let flat = [Vec3A::ZERO, Vec3A::X, Vec3A::X * 2.0];
+        assert!(triangle_frame(r, flat, StrainMeasure::Corotated).is_none());
+    }
+
+    #[test]
+    fn interleaved_normal_layout() {
+        assert!(check_interleaved(64, 32, 0, 12, 2).is_ok());
+        assert!(check_interleaved(64, 32, 12, 0, 2).is_ok());
+        assert!(check_interleaved(64, 32, 0, 8, 2).is_err()); // overlaps
+        assert!(check_interleaved(64, 32, 0, 24, 2).is_err()); // leaves the record
+        assert!(check_interleaved(55, 32, 0, 12, 2).is_err()); // last normal past the end
+        assert!(check_interleaved(56, 32, 0, 12, 2).is_ok());
+    }
+}
