@@ -104,7 +104,9 @@ struct Bench {
     tiles: usize,
     /// Coarse vertices per side.
     coarse_n: usize,
+    /// Steps of the fine sheet at the runtime's CG settings and at the reference's.
     fine_steps: usize,
+    reference_steps: usize,
     coarse_steps: usize,
 }
 
@@ -135,7 +137,8 @@ impl Preset {
                 refine: 2,
                 tiles: 19,
                 coarse_n: 21,
-                fine_steps: 6,
+                fine_steps: 5,
+                reference_steps: 2,
                 coarse_steps: 100,
             }),
             pictures: true,
@@ -155,6 +158,7 @@ impl Preset {
                 tiles: 19,
                 coarse_n: 21,
                 fine_steps: 3,
+                reference_steps: 0,
                 coarse_steps: 60,
             }),
             ..Preset::full()
@@ -280,6 +284,8 @@ pub struct Row {
     pub localize_ms: Option<f64>,
     pub err_mean: f64,
     pub err_max: f64,
+    /// `err_mean` once the mean offset (a uniform translation) is taken out.
+    pub err_mean_aligned: f64,
     pub err_normal_deg: f64,
     pub cg_iters: f64,
     pub fine_vertices: usize,
@@ -295,8 +301,12 @@ pub struct Row {
 struct SimOut {
     positions: Vec<Vec3A>,
     step_ms: Vec<f64>,
+    /// CG iterations summed over the accepted steps.
     iterations: u64,
     max_speed: f64,
+    /// Steps the world refused (lenient runs only) and the first refusal.
+    refused: usize,
+    first_refusal: Option<String>,
 }
 
 /// Steps `sheet` through `scene` with `materials` and `settings`; `hook` runs after every step.
@@ -306,6 +316,20 @@ fn simulate(
     scene: &Scene,
     settings: Settings,
     steps: usize,
+    hook: &mut dyn FnMut(&World<'_>, usize) -> Result<(), String>,
+) -> Result<SimOut, String> {
+    simulate_with(sheet, materials, scene, settings, steps, false, hook)
+}
+
+/// [`simulate`]; `lenient`: a step the world refuses (it keeps its state) is counted in
+/// `SimOut::refused` and timed like the others instead of ending the run (for timing only).
+fn simulate_with(
+    sheet: &Sheet,
+    materials: Materials<'_>,
+    scene: &Scene,
+    settings: Settings,
+    steps: usize,
+    lenient: bool,
     hook: &mut dyn FnMut(&World<'_>, usize) -> Result<(), String>,
 ) -> Result<SimOut, String> {
     let pinned = scene.pinned(sheet);
@@ -321,6 +345,7 @@ fn simulate(
     }
     let mut step_ms = Vec::with_capacity(steps);
     let mut iterations = 0u64;
+    let (mut refused, mut first_refusal) = (0usize, None);
     for step in 0..steps {
         if step == 0 || scene.pins_move(step) {
             for &p in &pinned {
@@ -331,9 +356,18 @@ fn simulate(
             }
         }
         let t = Instant::now();
-        let stats = world.step().map_err(|e| format!("step {step}: {e:?}"))?;
+        let result = world.step();
         step_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        iterations += u64::from(stats.iterations);
+        match result {
+            Ok(stats) => iterations += u64::from(stats.iterations),
+            Err(e) if lenient => {
+                refused += 1;
+                if first_refusal.is_none() {
+                    first_refusal = Some(format!("step {step}: {e:?}"));
+                }
+            }
+            Err(e) => return Err(format!("step {step}: {e:?}")),
+        }
         hook(&world, step)?;
     }
     let max_speed = world
@@ -346,6 +380,8 @@ fn simulate(
         step_ms,
         iterations,
         max_speed,
+        refused,
+        first_refusal,
     })
 }
 
@@ -361,6 +397,33 @@ pub fn median(v: &[f64]) -> f64 {
     } else {
         0.5 * (s[n / 2 - 1] + s[n / 2])
     }
+}
+
+/// Mean of `|a_i - b_i - t|` over the vertices, divided by `size`, where `t` is the mean of
+/// `a_i - b_i`: the error once a uniform translation is taken out.
+fn aligned_error(a: &[Vec3A], b: &[Vec3A], size: f64) -> f64 {
+    let n = a.len().max(1) as f64;
+    let mut t = [0.0f64; 3];
+    for (p, q) in a.iter().zip(b) {
+        let d = *p - *q;
+        t[0] += f64::from(d.x) / n;
+        t[1] += f64::from(d.y) / n;
+        t[2] += f64::from(d.z) / n;
+    }
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| {
+            let d = *p - *q;
+            let e = [
+                f64::from(d.x) - t[0],
+                f64::from(d.y) - t[1],
+                f64::from(d.z) - t[2],
+            ];
+            (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
+        })
+        .sum();
+    sum / n / size
 }
 
 /// Mean and max of `|a_i - b_i|` over the vertices, divided by `size`.
@@ -400,8 +463,8 @@ pub struct Picture {
 /// What one up-sampling mode produced over a coarse run.
 struct ModeOutput {
     /// Fine positions and normals after the last step.
-    positions: Vec<Vec3A>,
-    normals: Vec<Vec3A>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
     /// Per-step time of the up-sampling, ms.
     ms: Vec<f64>,
     failed: Option<String>,
@@ -599,6 +662,7 @@ fn run_case(
         localize_ms: None,
         err_mean: f64::NAN,
         err_max: f64::NAN,
+        err_mean_aligned: f64::NAN,
         err_normal_deg: f64::NAN,
         cg_iters: f64::NAN,
         fine_vertices: fine.uvs.len(),
@@ -647,6 +711,7 @@ fn run_case(
         ms_per_step: median(&out.step_ms),
         err_mean: 0.0,
         err_max: 0.0,
+        err_mean_aligned: 0.0,
         err_normal_deg: 0.0,
         cg_iters: out.iterations as f64 / steps as f64,
         max_speed: out.max_speed,
@@ -672,6 +737,7 @@ fn run_case(
                 fine_row.ms_per_step = median(&o.step_ms);
                 fine_row.err_mean = m;
                 fine_row.err_max = x;
+                fine_row.err_mean_aligned = aligned_error(&o.positions, &reference, size);
                 fine_row.err_normal_deg = normal_error(&nrm, &reference_normals);
                 fine_row.cg_iters = o.iterations as f64 / steps as f64;
                 fine_row.max_speed = o.max_speed;
@@ -690,6 +756,7 @@ fn run_case(
         Mode::On {
             recompute_normals: true,
         },
+        Mode::Green,
     ];
     let mut picture_panels: Vec<(String, Vec<Vec3A>, f64)> = Vec::new();
     for knobs in knob_list(preset, case) {
@@ -706,8 +773,8 @@ fn run_case(
         let mut outputs: Vec<ModeOutput> = modes
             .iter()
             .map(|_| ModeOutput {
-                positions: vec![Vec3A::ZERO; n_fine],
-                normals: vec![Vec3A::Z; n_fine],
+                positions: vec![[0.0; 3]; n_fine],
+                normals: vec![[0.0, 0.0, 1.0]; n_fine],
                 ms: Vec::new(),
                 failed: None,
             })
@@ -774,11 +841,13 @@ fn run_case(
                         rows.push(r);
                         continue;
                     }
-                    let (m, x) = position_error(pos, &reference, size);
+                    let pos = upsample::to_vec3a(pos);
+                    let (m, x) = position_error(&pos, &reference, size);
                     r.localize_ms = Some(median(times));
                     r.err_mean = m;
                     r.err_max = x;
-                    r.err_normal_deg = normal_error(nrm, &reference_normals);
+                    r.err_mean_aligned = aligned_error(&pos, &reference, size);
+                    r.err_normal_deg = normal_error(&upsample::to_vec3a(nrm), &reference_normals);
                     // pictures: the baseline's localized and embedded, the averaged localized
                     let is_base = Knobs {
                         averaged: false,
@@ -786,10 +855,13 @@ fn run_case(
                     } == Knobs::BASE;
                     if case.picture
                         && is_base
-                        && *mode
-                            != (Mode::On {
-                                recompute_normals: true,
-                            })
+                        && matches!(
+                            mode,
+                            Mode::Off
+                                | Mode::On {
+                                    recompute_normals: false
+                                }
+                        )
                     {
                         let label = match (knobs.averaged, mode) {
                             (false, Mode::Off) => "homogenized, no loc.",
@@ -797,7 +869,7 @@ fn run_case(
                             (true, Mode::Off) => "averaged, no loc.",
                             (true, _) => "averaged + loc.",
                         };
-                        picture_panels.push((label.to_string(), pos.clone(), m));
+                        picture_panels.push((label.to_string(), pos, m));
                     }
                     rows.push(r);
                 }
@@ -834,14 +906,52 @@ pub struct BenchOut {
     pub fine_triangles: usize,
     pub fine_vertices: usize,
     pub coarse_vertices: usize,
-    pub fine_ms: Vec<f64>,
-    pub fine_iters: f64,
-    pub coarse_ms: Vec<f64>,
-    pub coarse_iters: f64,
+    /// The fine sheet at the runtime's CG settings.
+    pub fine: BenchRun,
+    /// The fine sheet at the reference's CG settings (none in the quick preset).
+    pub reference: Option<BenchRun>,
+    pub coarse: BenchRun,
     pub localize_ms: Vec<f64>,
     pub world_bytes_fine: usize,
     pub world_bytes_coarse: usize,
     pub rows: Vec<Row>,
+}
+
+/// Timings of one world in the bench.
+pub struct BenchRun {
+    pub ms: Vec<f64>,
+    pub tol: f32,
+    pub max_iter: u32,
+    pub substeps: u32,
+    /// CG iterations per accepted step.
+    pub iters: f64,
+    pub refused: usize,
+    pub first_refusal: Option<String>,
+}
+
+impl BenchRun {
+    fn new(o: &SimOut, knobs: &Knobs) -> BenchRun {
+        let accepted = (o.step_ms.len() - o.refused).max(1);
+        BenchRun {
+            ms: o.step_ms.clone(),
+            tol: knobs.tol,
+            max_iter: knobs.max_iter,
+            substeps: knobs.substeps,
+            iters: o.iterations as f64 / accepted as f64,
+            refused: o.refused,
+            first_refusal: o.first_refusal.clone(),
+        }
+    }
+    pub fn status(&self) -> String {
+        match &self.first_refusal {
+            None => "timing only".into(),
+            Some(e) => format!(
+                "timing only; {} of {} steps refused (first: {e})",
+                self.refused,
+                self.ms.len()
+            ),
+        }
+    }
 }
 
 fn run_bench(b: &Bench) -> Result<BenchOut, String> {
@@ -858,29 +968,24 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
     let mut coarse =
         reference::coarse_sheet(fine.width, fine.height, b.coarse_n - 1, b.cell as u32);
     coarse.place(|uv| scene.place(uv, w, h));
-    let settings = Knobs::BASE.settings(&scene);
     let world_bytes_fine = fine.capacity(0).world_bytes();
     let world_bytes_coarse = coarse.capacity(0).world_bytes();
-
-    // Interleave: coarse, fine, coarse, so a swing of the machine's speed shows.
     let n_fine = fine.uvs.len();
-    let mut coarse_ms = Vec::new();
-    let mut localize_ms = Vec::new();
-    let mut coarse_iters = 0.0;
-    let mut mode = Mode::On {
+    let mode = Mode::On {
         recompute_normals: false,
     };
-    let coarse_run = |coarse_ms: &mut Vec<f64>,
-                      localize_ms: &mut Vec<f64>,
-                      mode: &mut Mode|
-     -> Result<f64, String> {
+
+    // Interleaved: coarse, fine, coarse (, reference), so a swing of the machine shows.
+    let mut localize_ms = Vec::new();
+    let mut coarse_runs = Vec::new();
+    let coarse_run = |localize_ms: &mut Vec<f64>| -> Result<SimOut, String> {
         let mut up: Option<Upsampler> = None;
-        let (mut pos, mut nrm) = (vec![Vec3A::ZERO; n_fine], vec![Vec3A::Z; n_fine]);
-        let o = simulate(
+        let (mut pos, mut nrm) = (vec![[0.0f32; 3]; n_fine], vec![[0.0f32; 3]; n_fine]);
+        simulate(
             &coarse,
             Materials::Blob(&blob),
             &scene,
-            settings,
+            Knobs::BASE.settings(&scene),
             b.coarse_steps,
             &mut |world, _| {
                 if up.is_none() {
@@ -888,80 +993,100 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
                 }
                 if let Some(u) = up.as_mut() {
                     let t = Instant::now();
-                    if u.run(world, *mode, &mut pos, &mut nrm).is_err() {
-                        // localization not available: time the embedding instead
-                        *mode = Mode::Off;
-                        u.run(world, *mode, &mut pos, &mut nrm)?;
-                    }
+                    u.run(world, mode, &mut pos, &mut nrm)?;
                     localize_ms.push(t.elapsed().as_secs_f64() * 1e3);
                 }
                 Ok(())
             },
-        )?;
-        coarse_ms.extend(&o.step_ms);
-        Ok(o.iterations as f64 / b.coarse_steps as f64)
+        )
     };
-    coarse_iters += coarse_run(&mut coarse_ms, &mut localize_ms, &mut mode)?;
-    let fine_out = simulate(
-        &fine,
-        Materials::Table(&table),
-        &scene,
-        settings,
-        b.fine_steps,
-        &mut |_, _| Ok(()),
-    )?;
-    coarse_iters += coarse_run(&mut coarse_ms, &mut localize_ms, &mut mode)?;
-    coarse_iters /= 2.0;
-    let fine_iters = fine_out.iterations as f64 / b.fine_steps as f64;
-    let row = |material: &str| Row {
+    coarse_runs.push(coarse_run(&mut localize_ms)?);
+    let fine_time = |knobs: &Knobs, steps: usize| -> Result<BenchRun, String> {
+        let t = Instant::now();
+        let o = simulate_with(
+            &fine,
+            Materials::Table(&table),
+            &scene,
+            knobs.settings(&scene),
+            steps,
+            true,
+            &mut |_, _| Ok(()),
+        )?;
+        println!(
+            "  fine sheet, CG {:e}/{}, {} substep(s): {} steps in {:.1} s",
+            knobs.tol,
+            knobs.max_iter,
+            knobs.substeps,
+            steps,
+            t.elapsed().as_secs_f64()
+        );
+        Ok(BenchRun::new(&o, knobs))
+    };
+    let fine_run = fine_time(&Knobs::BASE, b.fine_steps)?;
+    coarse_runs.push(coarse_run(&mut localize_ms)?);
+    let reference_knobs = Knobs {
+        tol: scene.reference_tolerance(),
+        max_iter: REFERENCE_MAX_ITER,
+        substeps: scene.reference_substeps(),
+        ..Knobs::BASE
+    };
+    let reference_run = if b.reference_steps > 0 {
+        Some(fine_time(&reference_knobs, b.reference_steps)?)
+    } else {
+        None
+    };
+    let coarse_o = SimOut {
+        positions: Vec::new(),
+        step_ms: coarse_runs.iter().flat_map(|o| o.step_ms.clone()).collect(),
+        iterations: coarse_runs.iter().map(|o| o.iterations).sum(),
+        max_speed: 0.0,
+        refused: 0,
+        first_refusal: None,
+    };
+    let coarse_bench = BenchRun::new(&coarse_o, &Knobs::BASE);
+    let row = |material: &str, run: &BenchRun| Row {
         scene: "bench-drape".into(),
         cell: CELLS[b.cell].into(),
         material: material.into(),
         coarse_res: None,
         strain: None,
-        cg_tol: Knobs::BASE.tol,
-        cg_max_iter: Knobs::BASE.max_iter,
-        substeps: 1,
+        cg_tol: run.tol,
+        cg_max_iter: run.max_iter,
+        substeps: run.substeps,
         warping: true,
         mode: None,
-        ms_per_step: f64::NAN,
+        ms_per_step: median(&run.ms),
         localize_ms: None,
         err_mean: f64::NAN,
         err_max: f64::NAN,
+        err_mean_aligned: f64::NAN,
         err_normal_deg: f64::NAN,
-        cg_iters: f64::NAN,
+        cg_iters: run.iters,
         fine_vertices: fine.uvs.len(),
         fine_triangles: fine.triangles.len(),
         coarse_vertices: None,
         sheet_m: fine.width,
         max_speed: f64::NAN,
-        status: "ok".into(),
+        status: run.status(),
     };
-    let rows = vec![
-        Row {
-            ms_per_step: median(&fine_out.step_ms),
-            cg_iters: fine_iters,
-            status: "timing only".into(),
-            ..row("fine")
-        },
-        Row {
-            coarse_vertices: Some(coarse.uvs.len()),
-            mode: Some(mode),
-            ms_per_step: median(&coarse_ms),
-            localize_ms: Some(median(&localize_ms)),
-            cg_iters: coarse_iters,
-            status: "timing only".into(),
-            ..row("homogenized")
-        },
-    ];
+    let mut rows = vec![row("fine", &fine_run)];
+    if let Some(r) = &reference_run {
+        rows.push(row("fine", r));
+    }
+    rows.push(Row {
+        coarse_vertices: Some(coarse.uvs.len()),
+        coarse_res: Some(1),
+        mode: Some(mode),
+        localize_ms: Some(median(&localize_ms)),
+        ..row("homogenized", &coarse_bench)
+    });
     Ok(BenchOut {
         fine_triangles: fine.triangles.len(),
         fine_vertices: fine.uvs.len(),
         coarse_vertices: coarse.uvs.len(),
-        fine_ms: fine_out.step_ms,
-        fine_iters,
-        coarse_ms,
-        coarse_iters,
+        fine: fine_run,
+        reference: reference_run,
+        coarse: coarse_bench,
         localize_ms,
         world_bytes_fine,
         world_bytes_coarse,

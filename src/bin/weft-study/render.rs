@@ -159,13 +159,49 @@ pub fn draw_mesh_with(
         fill(img, depth, s, colour);
     }
     if let Some(w) = wire {
-        let clip = panel.clip();
+        // depth tested, a little in front so the triangle's own edges show
+        let bias = 1.5 / f64::from(cam.scale);
         for tri in triangles {
             let s = tri.map(|i| cam.project(positions[i as usize], &panel));
             for k in 0..3 {
-                let (p, q) = (s[k], s[(k + 1) % 3]);
-                img.line([p[0], p[1]], [q[0], q[1]], w, &clip, false);
+                line_depth(img, depth, s[k], s[(k + 1) % 3], w, bias);
             }
+        }
+    }
+}
+
+/// A one-pixel line with depth test (DDA, depth interpolated linearly).
+fn line_depth(img: &mut Image, depth: &Depth, a: [f64; 3], b: [f64; 3], c: Rgb, bias: f64) {
+    let p = depth.panel;
+    let (x0, y0, x1, y1) = (
+        p.x as f64,
+        p.y as f64,
+        (p.x + p.w) as f64,
+        (p.y + p.h) as f64,
+    );
+    // both ends beyond the same side: nothing to draw
+    if (a[0] < x0 && b[0] < x0)
+        || (a[0] >= x1 && b[0] >= x1)
+        || (a[1] < y0 && b[1] < y0)
+        || (a[1] >= y1 && b[1] >= y1)
+    {
+        return;
+    }
+    let steps = (b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil().max(1.0);
+    if !steps.is_finite() || steps > 1e5 {
+        return;
+    }
+    let n = steps as usize;
+    for s in 0..=n {
+        let f = s as f64 / steps;
+        let (x, y) = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]));
+        if x < x0 || y < y0 || x >= x1 || y >= y1 {
+            continue;
+        }
+        let z = a[2] + f * (b[2] - a[2]);
+        let k = (y as usize - p.y) * p.w + (x as usize - p.x);
+        if z + bias >= depth.z[k] {
+            img.set(x as usize, y as usize, c);
         }
     }
 }

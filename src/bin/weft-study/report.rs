@@ -13,7 +13,7 @@ use crate::scenes::Kind;
 use crate::upsample::Mode;
 use crate::{median, BenchOut, Knobs, Picture, Row, CELLS, REFERENCE_MAX_ITER};
 
-pub const CSV_COLUMNS: [&str; 23] = [
+pub const CSV_COLUMNS: [&str; 24] = [
     "scene",
     "cell",
     "material",
@@ -29,6 +29,7 @@ pub const CSV_COLUMNS: [&str; 23] = [
     "localize_ms",
     "err_mean",
     "err_max",
+    "err_mean_aligned",
     "err_normal_deg",
     "cg_iters",
     "fine_vertices",
@@ -83,6 +84,7 @@ impl Row {
             self.localize_ms.map(ms).unwrap_or_else(|| "-".into()),
             num(self.err_mean),
             num(self.err_max),
+            num(self.err_mean_aligned),
             if self.err_normal_deg.is_nan() {
                 "-".into()
             } else {
@@ -235,19 +237,27 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         averaged: true,
         ..Knobs::BASE
     };
-    let header = "| scene | cell | strain | hom., loc. off | hom. + loc. | avg., loc. off | avg. + loc. | avg./hom. (loc.) | fine ms/step | coarse ms/step + loc. ms |\n|---|---|---|---|---|---|---|---|---|---|";
+    let header = "| scene | cell | strain | hom., loc. off | hom. + loc. | avg. + loc. | avg./hom. | aligned: hom., loc. off | hom. + loc. | avg. + loc. | avg./hom. | fine ms/step | coarse ms/step + loc. ms |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
     let _ = writeln!(md, "## Baseline: homogenized versus averaged material\n");
+    let _ = writeln!(
+        md,
+        "Mean error / sheet size; *aligned*: the same once the mean offset (a uniform \
+         translation of the whole sheet) is taken out.\n"
+    );
     let _ = writeln!(md, "{header}");
+    let ea = |r: Option<&Row>| {
+        r.map(|r| format!("{:.2e}", r.err_mean_aligned))
+            .unwrap_or_else(|| "-".into())
+    };
+    let ratio = |h: Option<&Row>, a: Option<&Row>, f: fn(&Row) -> f64| match (h, a) {
+        (Some(h), Some(a)) => format!("{:.1}", f(a) / f(h)),
+        _ => "-".into(),
+    };
     for k in &keys {
         let r = |material: &str, knobs: &Knobs, mode: Mode| coarse(rows, k, material, knobs, mode);
         let ho = r("homogenized", &Knobs::BASE, Mode::Off);
         let hl = r("homogenized", &Knobs::BASE, ON);
-        let ao = r("averaged", &avg, Mode::Off);
         let al = r("averaged", &avg, ON);
-        let ratio = match (hl, al) {
-            (Some(h), Some(a)) => format!("{:.1}", a.err_mean / h.err_mean),
-            _ => "-".into(),
-        };
         let fine = reference_of(rows, k)
             .map(|f| format!("{:.1}", f.ms_per_step))
             .unwrap_or_default();
@@ -263,15 +273,18 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
             .unwrap_or_default();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             k.0,
             k.1,
             pct(ho.or(hl).and_then(|r| r.strain)),
             e(ho),
             e(hl),
-            e(ao),
             e(al),
-            ratio,
+            ratio(hl, al, |r| r.err_mean),
+            ea(ho),
+            ea(hl),
+            ea(al),
+            ratio(hl, al, |r| r.err_mean_aligned),
             fine,
             cms
         );
@@ -314,7 +327,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
     );
     let _ = writeln!(
         md,
-        "| scene | cell | strain | configuration | ms/step | CG it./step | loc. off err | loc. on err | err max (on) | normals blended / recomputed (deg) | loc. ms blended / recomputed |\n|---|---|---|---|---|---|---|---|---|---|---|"
+        "| scene | cell | strain | configuration | ms/step | CG it./step | loc. off err | loc. on err | loc. on (Green) err | err max (on) | normals blended / recomputed (deg) | loc. ms blended / recomputed |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for k in &keys {
         let swept: Vec<&Row> = rows
@@ -346,10 +359,11 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
             let rec = same(Mode::On {
                 recompute_normals: true,
             });
+            let green = same(Mode::Green);
             let f = |r: Option<&Row>, g: &dyn Fn(&Row) -> String| r.map(g).unwrap_or("-".into());
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {:.3} | {:.0} | {:.2e} | {} | {} | {} / {} | {} / {} |",
+                "| {} | {} | {} | {} | {:.3} | {:.0} | {:.2e} | {} | {} | {} | {} / {} | {} / {} |",
                 k.0,
                 k.1,
                 pct(off.strain),
@@ -362,6 +376,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
                 off.cg_iters,
                 off.err_mean,
                 e(on),
+                e(green),
                 f(on, &|r| format!("{:.2e}", r.err_max)),
                 f(on, &|r| format!("{:.2}", r.err_normal_deg)),
                 f(rec, &|r| format!("{:.2}", r.err_normal_deg)),
@@ -378,7 +393,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         {
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | **fine sheet** at the runtime's CG ({:e}/{}) | {:.3} | {:.0} | {:.2e} | | {:.2e} | {:.2} | |",
+                "| {} | {} | {} | **fine sheet** at the runtime's CG ({:e}/{}) | {:.3} | {:.0} | {:.2e} | | | {:.2e} | {:.2} | |",
                 k.0,
                 k.1,
                 pct(f.strain),
@@ -425,7 +440,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
                 .filter(|r| {
                     case_key(r) == *k
                         && r.material != "fine"
-                        && matches!(r.mode, Some(Mode::On { .. }))
+                        && r.mode.is_some_and(Mode::is_on)
                         && r.status == "ok"
                         && r.err_mean <= level
                 })
@@ -454,8 +469,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
     }
 
     if let Some(b) = bench {
-        let fine = median(&b.fine_ms);
-        let step = median(&b.coarse_ms);
+        let step = median(&b.coarse.ms);
         let loc = median(&b.localize_ms);
         let _ = writeln!(
             md,
@@ -464,38 +478,64 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         );
         let _ = writeln!(
             md,
-            "Drape scene, runtime CG settings ({:e} / {} iterations, 1 substep) for both.\n",
-            Knobs::BASE.tol,
-            Knobs::BASE.max_iter
+            "Drape scene (1/120 s steps). Medians over the timed steps; one core. A step the \
+             world refuses (energy monitor) is timed like the others.\n"
         );
         let _ = writeln!(
             md,
-            "| | vertices | world bytes | steps timed | ms/step (median) | CG it./step | localization ms |\n|---|---|---|---|---|---|---|"
+            "| | vertices | world bytes | CG tol / cap, substeps | steps timed | ms/step (median) | CG it./step | localization ms | speedup of coarse + loc. | status |\n|---|---|---|---|---|---|---|---|---|---|"
         );
-        let _ = writeln!(
-            md,
-            "| fine reference | {} | {} | {} | {:.1} | {:.0} | |",
+        let coarse_loc = loc;
+        let mut line = |label: &str,
+                        verts: usize,
+                        bytes: usize,
+                        r: &crate::BenchRun,
+                        loc: Option<f64>| {
+            let ms = median(&r.ms);
+            let _ = writeln!(
+                md,
+                "| {label} | {verts} | {bytes} | {:e} / {}, {} | {} | {:.3} | {:.0} | {} | {} | {} |",
+                r.tol,
+                r.max_iter,
+                r.substeps,
+                r.ms.len(),
+                ms,
+                r.iters,
+                loc.map(|l| format!("{l:.3}")).unwrap_or_default(),
+                if loc.is_none() {
+                    format!("**{:.0}×**", ms / (step + coarse_loc))
+                } else {
+                    String::new()
+                },
+                r.status()
+            );
+        };
+        line(
+            "fine sheet, runtime CG",
             b.fine_vertices,
             b.world_bytes_fine,
-            b.fine_ms.len(),
-            fine,
-            b.fine_iters
+            &b.fine,
+            None,
         );
-        let _ = writeln!(
-            md,
-            "| coarse + localization | {} | {} | {} | {:.3} | {:.0} | {:.3} |",
+        if let Some(r) = &b.reference {
+            line(
+                "fine reference",
+                b.fine_vertices,
+                b.world_bytes_fine,
+                r,
+                None,
+            );
+        }
+        line(
+            "coarse + localization",
             b.coarse_vertices,
             b.world_bytes_coarse,
-            b.coarse_ms.len(),
-            step,
-            b.coarse_iters,
-            loc
+            &b.coarse,
+            Some(loc),
         );
         let _ = writeln!(
             md,
-            "\nSpeedup: **{:.0}×** (coarse step + localization), {:.0}× (coarse step alone).",
-            fine / (step + loc),
-            fine / step
+            "\nSpeedup = fine ms/step ÷ (coarse ms/step {step:.3} + localization {loc:.3} ms)."
         );
     }
 
@@ -510,70 +550,75 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
 
 fn strain_plot(rows: &[Row]) -> String {
     let mut plots = Vec::new();
-    for cell in CELLS {
-        let mut series = Vec::new();
-        for (d, dir) in ["stretch-u", "stretch-v", "stretch-diag"]
-            .iter()
-            .enumerate()
-        {
-            for (material, knobs, marker) in [
-                ("homogenized", Knobs::BASE, 'o'),
-                (
-                    "averaged",
-                    Knobs {
-                        averaged: true,
-                        ..Knobs::BASE
-                    },
-                    's',
-                ),
-            ] {
-                for (mode, dashed) in [(ON, false), (Mode::Off, true)] {
-                    let mut pts: Vec<(f64, f64)> = rows
-                        .iter()
-                        .filter(|r| {
-                            r.scene == *dir
-                                && r.cell == cell
-                                && r.is(material, &knobs)
-                                && r.mode == Some(mode)
-                        })
-                        .filter_map(|r| r.strain.map(|s| (s * 100.0, r.err_mean)))
-                        .collect();
-                    if pts.is_empty() {
-                        continue;
+    type Metric = fn(&Row) -> f64;
+    let metrics: [(&str, Metric); 2] =
+        [("", |r| r.err_mean), (" (aligned)", |r| r.err_mean_aligned)];
+    for (suffix, metric) in metrics {
+        for cell in CELLS {
+            let mut series = Vec::new();
+            for (d, dir) in ["stretch-u", "stretch-v", "stretch-diag"]
+                .iter()
+                .enumerate()
+            {
+                for (material, knobs, marker) in [
+                    ("homogenized", Knobs::BASE, 'o'),
+                    (
+                        "averaged",
+                        Knobs {
+                            averaged: true,
+                            ..Knobs::BASE
+                        },
+                        's',
+                    ),
+                ] {
+                    for (mode, dashed) in [(ON, false), (Mode::Off, true)] {
+                        let mut pts: Vec<(f64, f64)> = rows
+                            .iter()
+                            .filter(|r| {
+                                r.scene == *dir
+                                    && r.cell == cell
+                                    && r.is(material, &knobs)
+                                    && r.mode == Some(mode)
+                            })
+                            .filter_map(|r| r.strain.map(|s| (s * 100.0, metric(r))))
+                            .collect();
+                        if pts.is_empty() {
+                            continue;
+                        }
+                        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                        series.push(Series {
+                            name: format!(
+                                "{} {}{}",
+                                &dir[8..],
+                                &material[..3],
+                                if dashed { ", loc. off" } else { " + loc." }
+                            ),
+                            colour: COLOURS[d * 2 + usize::from(material == "averaged")],
+                            points: pts,
+                            line: true,
+                            dashed,
+                            marker,
+                        });
                     }
-                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    series.push(Series {
-                        name: format!(
-                            "{} {}{}",
-                            &dir[8..],
-                            &material[..3],
-                            if dashed { ", loc. off" } else { " + loc." }
-                        ),
-                        colour: COLOURS[d * 2 + usize::from(material == "averaged")],
-                        points: pts,
-                        line: true,
-                        dashed,
-                        marker,
-                    });
                 }
             }
-        }
-        if !series.is_empty() {
-            plots.push(Plot {
-                title: format!("{cell}: error versus strain"),
-                x_label: "macro strain (%)".into(),
-                y_label: "mean vertex error / sheet size".into(),
-                x_log: true,
-                y_log: true,
-                series,
-            });
+            if !series.is_empty() {
+                plots.push(Plot {
+                    title: format!("{cell}: error versus strain{suffix}"),
+                    x_label: "macro strain (%)".into(),
+                    y_label: format!("mean vertex error{suffix} / sheet size"),
+                    x_log: true,
+                    y_log: true,
+                    series,
+                });
+            }
         }
     }
-    combine(&plots)
+    combine(&plots, 2)
 }
 
-/// Plots side by side in one SVG.
-fn combine(plots: &[Plot]) -> String {
+/// Plots in one SVG, `columns` per row.
+fn combine(plots: &[Plot], columns: usize) -> String {
     let svgs: Vec<String> = plots.iter().map(Plot::svg).collect();
     let size = |s: &str, key: &str| -> f64 {
         s.split(&format!(" {key}=\""))
@@ -583,13 +628,21 @@ fn combine(plots: &[Plot]) -> String {
             .unwrap_or(0.0)
     };
     let (mut w, mut h) = (0.0f64, 0.0f64);
+    let (mut x, mut y, mut row_h) = (0.0f64, 0.0f64, 0.0f64);
     let mut body = String::new();
-    for s in &svgs {
+    for (k, s) in svgs.iter().enumerate() {
+        if k > 0 && k % columns.max(1) == 0 {
+            x = 0.0;
+            y += row_h;
+            row_h = 0.0;
+        }
         let (sw, sh) = (size(s, "width"), size(s, "height"));
-        let inner = s.replacen("<svg ", &format!("<svg x=\"{w}\" y=\"0\" "), 1);
+        let inner = s.replacen("<svg ", &format!("<svg x=\"{x}\" y=\"{y}\" "), 1);
         body.push_str(&inner);
-        w += sw;
-        h = h.max(sh);
+        x += sw;
+        w = w.max(x);
+        row_h = row_h.max(sh);
+        h = h.max(y + row_h);
     }
     format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n{body}</svg>\n"
@@ -632,7 +685,7 @@ fn pareto_plots(rows: &[Row]) -> (String, Vec<(String, String)>) {
                 ("fine", _) if r.err_mean == 0.0 => continue,
                 ("fine", _) => (0, "fine sheet, runtime CG"),
                 ("homogenized", Some(Mode::Off)) => (1, "homogenized, loc. off"),
-                ("homogenized", Some(Mode::On { .. })) => (2, "homogenized + loc."),
+                ("homogenized", Some(m)) if m.is_on() => (2, "homogenized + loc."),
                 ("averaged", Some(Mode::Off)) => (3, "averaged, loc. off"),
                 ("averaged", _) => (4, "averaged + loc."),
                 _ => continue,
@@ -641,7 +694,7 @@ fn pareto_plots(rows: &[Row]) -> (String, Vec<(String, String)>) {
                 .entry((g, label))
                 .or_default()
                 .push((r.frame_ms(), r.err_mean));
-            if matches!(r.mode, Some(Mode::On { .. })) {
+            if r.mode.is_some_and(Mode::is_on) {
                 front_pts.push((r.frame_ms(), r.err_mean));
             }
         }
@@ -759,7 +812,7 @@ fn picture(p: &Picture) -> Image {
     let cols = 1 + p.panels.len();
     let title_h = 24;
     let width = 2 * MARGIN + cols * PANEL + (cols - 1) * GAP;
-    let height = 2 * MARGIN + title_h + 2 * (LABEL + PANEL) + GAP;
+    let height = 2 * MARGIN + title_h + 3 * (LABEL + PANEL) + 2 * GAP;
     let mut img = Image::new(width, height);
     let title = format!(
         "{} {}{}: fine reference vs coarse (outline: reference)",
@@ -786,6 +839,7 @@ fn picture(p: &Picture) -> Image {
     let meshes: Vec<&[Vec3A]> = all.iter().map(|a| a.1).collect();
     let cam = Camera::fit(toward, up, &meshes, &panel_at(0, 0), 10.0);
     let outline = render::grid_boundary(&p.reference, p.fine.nx, p.fine.ny);
+    let size = p.fine.width.max(p.fine.height);
     // zoom: two cells around a point where the scene does something
     let (fu, fv) = match p.scene.kind {
         Kind::Hang { .. } => (0.12, 0.88),
@@ -799,8 +853,24 @@ fn picture(p: &Picture) -> Image {
     let cells_across = 2.2;
     let zoom_scale = PANEL as f32 / (p.cell_size as f32 * cells_across);
     let zoom = cam.zoomed(focus, zoom_scale.max(cam.scale()));
+    // per-vertex distance to the reference, one colour scale for the whole picture
+    let dist: Vec<Vec<f32>> = all
+        .iter()
+        .map(|a| {
+            a.1.iter()
+                .zip(&p.reference)
+                .map(|(x, r)| (*x - *r).length())
+                .collect()
+        })
+        .collect();
+    let scale = dist
+        .iter()
+        .flatten()
+        .copied()
+        .fold(0.0f32, f32::max)
+        .max(f32::MIN_POSITIVE);
     for (c, (label, x, err)) in all.iter().enumerate() {
-        for (row, camera) in [(0, &cam), (1, &zoom)] {
+        for (row, camera) in [(0, &cam), (1, &zoom), (2, &cam)] {
             let panel = panel_at(c, row);
             img.fill_rect(panel.x, panel.y, panel.w, panel.h, [246, 246, 246]);
             let mut depth = Depth::new(panel);
@@ -816,17 +886,47 @@ fn picture(p: &Picture) -> Image {
                     None,
                 );
             }
-            render::draw_mesh(
-                &mut img,
-                &mut depth,
-                camera,
-                x,
-                &p.fine.triangles,
-                &p.fine.materials,
-                if row == 1 { Some([60, 60, 60]) } else { None },
-            );
+            if row == 2 {
+                let d = &dist[c];
+                render::draw_mesh_with(
+                    &mut img,
+                    &mut depth,
+                    camera,
+                    x,
+                    &p.fine.triangles,
+                    &|t| {
+                        let [a, b, e] = p.fine.triangles[t].map(|i| d[i as usize]);
+                        heat((a + b + e) / (3.0 * scale))
+                    },
+                    None,
+                );
+            } else {
+                render::draw_mesh(
+                    &mut img,
+                    &mut depth,
+                    camera,
+                    x,
+                    &p.fine.triangles,
+                    &p.fine.materials,
+                    if row == 1 { Some([60, 60, 60]) } else { None },
+                );
+            }
             render::draw_polyline(&mut img, camera, &panel, &outline, INK);
-            if row == 0 {
+            if row == 2 {
+                let text = if c == 0 {
+                    format!("0 to {:.2}% of size", 100.0 * f64::from(scale) / size)
+                } else {
+                    "distance to reference".into()
+                };
+                img.text(panel.x, panel.y - LABEL + 20, &text, INK);
+                if c == 0 {
+                    // colour bar
+                    for k in 0..panel.w - 20 {
+                        let col = heat(k as f32 / (panel.w - 20) as f32);
+                        img.fill_rect(panel.x + 10 + k, panel.y + panel.h - 18, 1, 10, col);
+                    }
+                }
+            } else if row == 0 {
                 img.text(panel.x, panel.y - LABEL + 2, label, INK);
                 let sub = if c == 0 {
                     format!("{} triangles", p.fine.triangles.len())
@@ -840,4 +940,23 @@ fn picture(p: &Picture) -> Image {
         }
     }
     img
+}
+
+/// White (0) through yellow and orange to dark red (1).
+fn heat(t: f32) -> [u8; 3] {
+    let t = t.clamp(0.0, 1.0);
+    let stops: [(f32, [f32; 3]); 4] = [
+        (0.0, [255.0, 255.0, 255.0]),
+        (0.33, [255.0, 220.0, 60.0]),
+        (0.66, [240.0, 100.0, 20.0]),
+        (1.0, [140.0, 0.0, 20.0]),
+    ];
+    for w in stops.windows(2) {
+        let ((a, ca), (b, cb)) = (w[0], w[1]);
+        if t <= b {
+            let f = (t - a) / (b - a);
+            return [0, 1, 2].map(|k| (ca[k] + f * (cb[k] - ca[k])).round() as u8);
+        }
+    }
+    [140, 0, 20]
 }

@@ -1,12 +1,15 @@
-//! Fine positions from a coarse cloth.
+//! Fine positions from a coarse cloth, with `weft::localize` (§6).
 //!
-//! * localization off: each fine vertex keeps its barycentric place in its coarse triangle
-//!   (the affine embedding, Eq. 23 without `w`), normals are the barycentric blend of the
-//!   coarse vertex normals;
-//! * localization on: `weft::localize` (§6).
+//! * localization on: [`localize::bind`] once, then per frame [`localize::prepare`] and
+//!   [`localize::localize`] (`x = Σ b_k p_k + T w`, `w = −χ Ê`), normals blended from the
+//!   coarse vertices or recomputed on the fine mesh ([`localize::recompute_normals`]);
+//! * localization off: the same bindings with `χ = 0`, i.e. the barycentric embedding of each
+//!   fine vertex in its coarse triangle (Eq. 23 without `w`), same code and cost.
 
 use glam::Vec3A;
 use weft::blob::Blob;
+use weft::localize::{self, Binding, NormalTarget, StrainMeasure, VertexFrame};
+use weft::strided::{Strided, StridedMut};
 use weft::world::World;
 
 /// How fine positions (and normals) are made from the coarse cloth.
@@ -16,6 +19,9 @@ pub enum Mode {
     Off,
     /// Localization; normals blended from the coarse cloth or recomputed on the fine mesh.
     On { recompute_normals: bool },
+    /// Localization with the paper's verbatim strain and frame (Green strain, `T = F`),
+    /// blended normals.
+    Green,
 }
 
 impl Mode {
@@ -23,6 +29,7 @@ impl Mode {
         match self {
             Mode::Off => "off",
             Mode::On { .. } => "on",
+            Mode::Green => "on-green",
         }
     }
     pub fn normals(self) -> &'static str {
@@ -33,82 +40,44 @@ impl Mode {
             _ => "blended",
         }
     }
+    pub fn is_on(self) -> bool {
+        self != Mode::Off
+    }
 }
 
-/// Where each fine vertex sits in the coarse cloth.
+/// The bindings of a fine mesh to one coarse world and the per-frame work buffers.
 pub struct Upsampler {
-    triangle: Vec<u32>,
-    bary: Vec<[f32; 3]>,
-    coarse_normals: Vec<Vec3A>,
+    bindings: Vec<Binding>,
+    /// The same with `χ = 0`.
+    embedding: Vec<Binding>,
+    frames: Vec<VertexFrame>,
+    fine_triangles: Vec<[u32; 3]>,
 }
 
 impl Upsampler {
-    /// Binds every fine vertex `(u, v)` to the coarse triangle of `world` that contains it.
+    /// Binds every fine vertex `(u, v)` to `world` (whose triangle materials are cells of
+    /// `blob`).
     pub fn new(
         world: &World<'_>,
-        _blob: &Blob<'_>,
+        blob: &Blob<'_>,
         fine_uv: &[[f32; 2]],
-        _fine_triangles: &[[u32; 3]],
+        fine_triangles: &[[u32; 3]],
     ) -> Result<Upsampler, String> {
-        let rest = world.rest_positions();
-        let tris = world.triangles();
-        let mut triangle = Vec::with_capacity(fine_uv.len());
-        let mut bary = Vec::with_capacity(fine_uv.len());
-        // A uniform grid of buckets over the coarse triangles' bounding boxes.
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for r in rest {
-            lo = [lo[0].min(r.x), lo[1].min(r.y)];
-            hi = [hi[0].max(r.x), hi[1].max(r.y)];
-        }
-        let nb = ((tris.len() as f64).sqrt().ceil() as usize).max(1);
-        let cell = |p: f32, k: usize| -> usize {
-            let f = (p - lo[k]) / (hi[k] - lo[k]).max(f32::MIN_POSITIVE);
-            ((f * nb as f32).floor().max(0.0) as usize).min(nb - 1)
-        };
-        let mut buckets = vec![Vec::new(); nb * nb];
-        for (t, tri) in tris.iter().enumerate() {
-            let c = tri.map(|i| rest[i as usize]);
-            let (x0, x1) = (
-                cell(c.iter().map(|p| p.x).fold(f32::INFINITY, f32::min), 0),
-                cell(c.iter().map(|p| p.x).fold(f32::NEG_INFINITY, f32::max), 0),
-            );
-            let (y0, y1) = (
-                cell(c.iter().map(|p| p.y).fold(f32::INFINITY, f32::min), 1),
-                cell(c.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max), 1),
-            );
-            for by in y0..=y1 {
-                for bx in x0..=x1 {
-                    buckets[by * nb + bx].push(t as u32);
-                }
-            }
-        }
-        for (i, uv) in fine_uv.iter().enumerate() {
-            let p = [f64::from(uv[0]), f64::from(uv[1])];
-            let bucket = &buckets[cell(uv[1], 1) * nb + cell(uv[0], 0)];
-            let mut best: Option<(f64, u32, [f64; 3])> = None;
-            for &t in bucket {
-                let c = tris[t as usize].map(|k| {
-                    let r = rest[k as usize];
-                    [f64::from(r.x), f64::from(r.y)]
-                });
-                let b = barycentric(c, p);
-                let worst = b.iter().copied().fold(f64::INFINITY, f64::min);
-                if best.is_none_or(|(w, _, _)| worst > w) {
-                    best = Some((worst, t, b));
-                }
-            }
-            match best {
-                Some((w, t, b)) if w > -1e-4 => {
-                    triangle.push(t);
-                    bary.push(b.map(|x| x as f32));
-                }
-                _ => return Err(format!("fine vertex {i} lies outside the coarse cloth")),
-            }
-        }
+        let uv = Strided::from_slice(fine_uv);
+        let mut bindings = vec![Binding::ZERO; localize::bindings_needed(&uv)];
+        localize::bind(world, blob, &uv, &mut bindings).map_err(|e| format!("bind: {e}"))?;
+        let embedding = bindings
+            .iter()
+            .map(|b| Binding {
+                chi: [0.0; 6],
+                ..*b
+            })
+            .collect();
         Ok(Upsampler {
-            triangle,
-            bary,
-            coarse_normals: vec![Vec3A::Z; world.vertex_count()],
+            bindings,
+            embedding,
+            frames: vec![VertexFrame::REST; world.vertex_count()],
+            fine_triangles: fine_triangles.to_vec(),
         })
     }
 
@@ -117,49 +86,48 @@ impl Upsampler {
         &mut self,
         world: &World<'_>,
         mode: Mode,
-        positions: &mut [Vec3A],
-        normals: &mut [Vec3A],
+        positions: &mut [[f32; 3]],
+        normals: &mut [[f32; 3]],
     ) -> Result<(), String> {
-        match mode {
-            Mode::Off => {
-                let x = world.positions();
-                area_normals(world.triangles(), x, &mut self.coarse_normals);
-                let tris = world.triangles();
-                for (((p, nrm), &t), b) in positions
-                    .iter_mut()
-                    .zip(normals.iter_mut())
-                    .zip(&self.triangle)
-                    .zip(&self.bary)
-                {
-                    let c = tris[t as usize];
-                    *p =
-                        x[c[0] as usize] * b[0] + x[c[1] as usize] * b[1] + x[c[2] as usize] * b[2];
-                    let n = self.coarse_normals[c[0] as usize] * b[0]
-                        + self.coarse_normals[c[1] as usize] * b[1]
-                        + self.coarse_normals[c[2] as usize] * b[2];
-                    *nrm = n.normalize_or_zero();
-                }
-                Ok(())
-            }
-            Mode::On { .. } => Err("localization is not available yet".into()),
+        let measure = if mode == Mode::Green {
+            StrainMeasure::Green
+        } else {
+            StrainMeasure::Corotated
+        };
+        localize::prepare(world, measure, &mut self.frames).map_err(|e| format!("prepare: {e}"))?;
+        let bindings = if mode == Mode::Off {
+            &self.embedding
+        } else {
+            &self.bindings
+        };
+        let mut pos = StridedMut::from_slice(positions);
+        let mut nrm = StridedMut::from_slice(normals);
+        let recompute = mode
+            == Mode::On {
+                recompute_normals: true,
+            };
+        if recompute {
+            localize::localize(&self.frames, world.triangles(), bindings, 0, &mut pos, None)
+                .map_err(|e| format!("localize: {e}"))?;
+            localize::recompute_normals(
+                &self.fine_triangles,
+                &mut pos,
+                NormalTarget::Buffer(&mut nrm),
+            )
+            .map_err(|e| format!("normals: {e}"))?;
+        } else {
+            localize::localize(
+                &self.frames,
+                world.triangles(),
+                bindings,
+                0,
+                &mut pos,
+                Some(NormalTarget::Buffer(&mut nrm)),
+            )
+            .map_err(|e| format!("localize: {e}"))?;
         }
+        Ok(())
     }
-}
-
-/// Barycentric coordinates of `p` in the triangle `c`.
-fn barycentric(c: [[f64; 2]; 3], p: [f64; 2]) -> [f64; 3] {
-    let (e1, e2) = (
-        [c[1][0] - c[0][0], c[1][1] - c[0][1]],
-        [c[2][0] - c[0][0], c[2][1] - c[0][1]],
-    );
-    let d = [p[0] - c[0][0], p[1] - c[0][1]];
-    let det = e1[0] * e2[1] - e1[1] * e2[0];
-    if det == 0.0 {
-        return [f64::NEG_INFINITY; 3];
-    }
-    let b1 = (d[0] * e2[1] - d[1] * e2[0]) / det;
-    let b2 = (e1[0] * d[1] - e1[1] * d[0]) / det;
-    [1.0 - b1 - b2, b1, b2]
 }
 
 /// Area-weighted vertex normals of a triangle mesh (unit length; zero where undefined).
@@ -175,4 +143,9 @@ pub fn area_normals(triangles: &[[u32; 3]], x: &[Vec3A], out: &mut [Vec3A]) {
     for n in out.iter_mut() {
         *n = n.normalize_or_zero();
     }
+}
+
+/// `[f32; 3]` buffer as `Vec3A`s.
+pub fn to_vec3a(v: &[[f32; 3]]) -> Vec<Vec3A> {
+    v.iter().map(|p| Vec3A::from(*p)).collect()
 }
