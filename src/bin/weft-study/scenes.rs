@@ -42,9 +42,10 @@ pub enum Kind {
     /// `X + ε d (d·X)` of a uniaxial strain along `d`, the other two edges free; ramped over
     /// the first steps, then held until the sheet is at rest.
     Stretch { dir: Dir, strain: f64 },
-    /// Hanging in its own vertical plane from two clips (one cell long, at the two corners
-    /// of the top edge) under gravity `gravity` (m/s²), `along` being the material direction
-    /// that points up.
+    /// Hanging in its own plane from two clips (one cell long, at the two corners of the top
+    /// edge) under gravity `gravity` (m/s²) along `-along`: the sheet stays at its rest
+    /// placement `(u, v, 0)` and gravity points along `-v` (or `-u`), so plain linear FEM
+    /// (warping off) is comparable too.
     Hang { along: Dir, gravity: f32 },
     /// Draped over a sphere (radius 0.3 × the sheet's width) under gravity 9.81 m/s²: the sheet
     /// starts flat, just above the sphere's top, held there by a pinned patch of one cell at
@@ -119,9 +120,13 @@ impl Scene {
         let w = if warping { effects::WARPING } else { 0 };
         let (effects, gravity) = match self.kind {
             Kind::Stretch { .. } => (effects::PINS | effects::DAMPING, [0.0; 3]),
-            Kind::Hang { gravity, .. } => (
+            Kind::Hang { along, gravity } => (
                 effects::PINS | effects::DAMPING | effects::GRAVITY,
-                [0.0, 0.0, -gravity],
+                if along == Dir::U {
+                    [-gravity, 0.0, 0.0]
+                } else {
+                    [0.0, -gravity, 0.0]
+                },
             ),
             Kind::Drape => (
                 effects::GRAVITY
@@ -150,9 +155,7 @@ impl Scene {
     pub fn place(&self, uv: [f32; 2], width: f32, height: f32) -> [f32; 3] {
         let [u, v] = uv;
         match self.kind {
-            Kind::Stretch { .. } => [u, v, 0.0],
-            Kind::Hang { along: Dir::U, .. } => [v, 0.0, u],
-            Kind::Hang { .. } => [u, 0.0, v],
+            Kind::Stretch { .. } | Kind::Hang { .. } => [u, v, 0.0],
             Kind::Drape => [
                 u - 0.5 * width,
                 v - 0.5 * height,
@@ -253,7 +256,8 @@ impl Scene {
     pub fn view(&self) -> (Vec3A, Vec3A) {
         match self.kind {
             Kind::Stretch { .. } => (Vec3A::Z, Vec3A::Y),
-            Kind::Hang { .. } => (-Vec3A::Y, Vec3A::Z),
+            Kind::Hang { along: Dir::U, .. } => (Vec3A::Z, Vec3A::X),
+            Kind::Hang { .. } => (Vec3A::Z, Vec3A::Y),
             Kind::Drape => (Vec3A::new(0.55, -0.75, 0.45).normalize(), Vec3A::Z),
         }
     }
