@@ -22,16 +22,26 @@
 #[cfg(all(not(feature = "std"), not(test), panic = "abort"))]
 #[panic_handler]
 fn on_panic(_: &core::panic::PanicInfo<'_>) -> ! {
-    loop {
-        core::hint::spin_loop();
+    extern "C" {
+        // The C runtime's `abort` (every program that links the static library has one).
+        fn abort() -> !;
     }
+    // SAFETY: `abort` takes nothing and never returns.
+    unsafe { abort() }
 }
+// A non-LTO no_std static library can keep a reference to the unwinding personality from the
+// precompiled `core` (rust-lang/rust#56152) although nothing unwinds; this stub resolves it.
+// It is outside `ffi.rs`, so cbindgen never sees it.
+#[cfg(all(not(feature = "std"), not(test), panic = "abort"))]
+#[no_mangle]
+extern "C" fn rust_eh_personality() {}
 #[cfg(all(not(feature = "std"), not(test), panic = "unwind"))]
 extern crate std;
 
 pub mod bending;
 pub mod blob;
 pub mod collide;
+pub mod ffi;
 pub mod localize;
 pub mod membrane;
 pub mod mesh;

@@ -60,6 +60,15 @@ pub enum MeshError {
     },
     /// A slice handed in is shorter than the counts require.
     BufferTooSmall,
+    /// A vertex belongs to no triangle: it would have no mass, no stiffness and no one-ring.
+    UnusedVertex {
+        vertex: u32,
+    },
+    /// A triangle's (u,v) area is beyond `f32`: its lumped area overflows (a sheet some 1e19 m
+    /// across) or rounds to zero.
+    UvOutOfRange {
+        triangle: u32,
+    },
 }
 
 /// Relative area below which a 3D triangle is degenerate (area / longest edge²).
@@ -177,6 +186,9 @@ pub fn build(
     }
     for v in 0..n {
         vt_start[v + 1] += vt_start[v];
+    }
+    if let Some(v) = (0..n).find(|&v| vt_start[v] == vt_start[v + 1]) {
+        return Err(MeshError::UnusedVertex { vertex: v as u32 });
     }
     let fill = &mut topo.scratch_a[..n];
     fill.copy_from_slice(&vt_start[..n]);

@@ -109,7 +109,7 @@ impl fmt::Display for RotationError {
     }
 }
 
-/// Rest-state data of one node's moment matrix, computed once by [`rest_rings`].
+/// Rest-state data of one node's moment matrix ([`rest_rings`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RestRing {
     /// Rest mass centre `c0` of the ring including the node itself.
@@ -201,63 +201,68 @@ pub fn rest_rings(
         return Err(RotationError::NonFiniteRest);
     }
     for (i, o) in out.iter_mut().enumerate() {
-        let nb = neighbours(ring_start, ring, i);
-        let (mi, xi) = (mass[i], rest[i]);
-        // Centre relative to the node itself, for f32 accuracy.
-        let mut total = mi;
-        let mut dc = Vec3A::ZERO;
-        let mut edge_sum = 0.0f32;
-        for &j in nb {
-            let (mj, d) = (mass[j as usize], rest[j as usize] - xi);
-            total += mj;
-            dc += mj * d;
-            edge_sum += d.length();
-        }
-        dc /= total;
-        let mut polar = mi * dc.length_squared();
-        for &j in nb {
-            polar += mass[j as usize] * (rest[j as usize] - xi - dc).length_squared();
-        }
-        // Ellipsoid radii (Eq. 15): a = b = half the mean rest edge, c = a/10.
-        let a = if nb.is_empty() {
-            0.0
-        } else {
-            0.5 * edge_sum / nb.len() as f32
-        };
-        let c = 0.1 * a;
-        let ellip = (mi / 5.0) * Vec3A::new(a * a, a * a, c * c);
-        let normal_weight = 0.5 * polar;
-        // A_qq about c0 (Eq. 14's rest moment, with the ellipsoid and normal terms).
-        let mut cols = [Vec3A::ZERO; 3];
-        let mut add = |m: f32, y: Vec3A| {
-            cols[0] += m * y * y.x;
-            cols[1] += m * y * y.y;
-            cols[2] += m * y * y.z;
-        };
-        add(mi, -dc);
-        for &j in nb {
-            add(mass[j as usize], rest[j as usize] - xi - dc);
-        }
-        // Without the ellipsoid term: it is a rotation times a diagonal, carried separately.
-        // The in-plane part is invertible for any node of a valid triangle, the z part is w.
-        let aqq = Mat3A::from_cols(cols[0], cols[1], cols[2])
-            + Mat3A::from_diagonal(glam::Vec3::new(0.0, 0.0, normal_weight));
-        let det = aqq.determinant();
-        let scale = aqq.x_axis.x.max(aqq.y_axis.y).max(aqq.z_axis.z);
-        let aqq_inv = if det.is_finite() && det > 1e-12 * scale * scale * scale {
-            aqq.inverse()
-        } else {
-            Mat3A::IDENTITY
-        };
-        *o = RestRing {
-            c0: xi + dc,
-            mass: total,
-            ellip,
-            normal_weight,
-            aqq_inv,
-        };
+        *o = rest_ring(ring_start, ring, mass, rest, i);
     }
     Ok(())
+}
+
+/// The rest data of node `i`'s moment matrix (validated inputs: see [`rest_rings`]).
+fn rest_ring(ring_start: &[u32], ring: &[u32], mass: &[f32], rest: &[Vec3A], i: usize) -> RestRing {
+    let nb = neighbours(ring_start, ring, i);
+    let (mi, xi) = (mass[i], rest[i]);
+    // Centre relative to the node itself, for f32 accuracy.
+    let mut total = mi;
+    let mut dc = Vec3A::ZERO;
+    let mut edge_sum = 0.0f32;
+    for &j in nb {
+        let (mj, d) = (mass[j as usize], rest[j as usize] - xi);
+        total += mj;
+        dc += mj * d;
+        edge_sum += d.length();
+    }
+    dc /= total;
+    let mut polar = mi * dc.length_squared();
+    for &j in nb {
+        polar += mass[j as usize] * (rest[j as usize] - xi - dc).length_squared();
+    }
+    // Ellipsoid radii (Eq. 15): a = b = half the mean rest edge, c = a/10.
+    let a = if nb.is_empty() {
+        0.0
+    } else {
+        0.5 * edge_sum / nb.len() as f32
+    };
+    let c = 0.1 * a;
+    let ellip = (mi / 5.0) * Vec3A::new(a * a, a * a, c * c);
+    let normal_weight = 0.5 * polar;
+    // A_qq about c0 (Eq. 14's rest moment, with the ellipsoid and normal terms).
+    let mut cols = [Vec3A::ZERO; 3];
+    let mut add = |m: f32, y: Vec3A| {
+        cols[0] += m * y * y.x;
+        cols[1] += m * y * y.y;
+        cols[2] += m * y * y.z;
+    };
+    add(mi, -dc);
+    for &j in nb {
+        add(mass[j as usize], rest[j as usize] - xi - dc);
+    }
+    // Without the ellipsoid term: it is a rotation times a diagonal, carried separately.
+    // The in-plane part is invertible for any node of a valid triangle, the z part is w.
+    let aqq = Mat3A::from_cols(cols[0], cols[1], cols[2])
+        + Mat3A::from_diagonal(glam::Vec3::new(0.0, 0.0, normal_weight));
+    let det = aqq.determinant();
+    let scale = aqq.x_axis.x.max(aqq.y_axis.y).max(aqq.z_axis.z);
+    let aqq_inv = if det.is_finite() && det > 1e-12 * scale * scale * scale {
+        aqq.inverse()
+    } else {
+        Mat3A::IDENTITY
+    };
+    RestRing {
+        c0: xi + dc,
+        mass: total,
+        ellip,
+        normal_weight,
+        aqq_inv,
+    }
 }
 
 /// Area-weighted vertex normals, normalized.
@@ -334,8 +339,9 @@ pub fn vertex_normals(
 /// Update every node's rotation `R_i` (Eq. 14–16) from the current positions `x` and vertex
 /// normals `normals` (see [`vertex_normals`]), warm-starting from `rot`.
 ///
-/// `ring_start`, `ring`, `mass`, `rest` are the ones given to [`rest_rings`], which produced
-/// `rings`. `max_iter` bounds the quaternion iterations per node (1–3 is typical when warm
+/// `ring_start`, `ring`, `mass`, `rest` are as for [`rest_rings`]; the rest data is recomputed
+/// per node here (a ring loop and a 3×3 inverse) rather than stored, which keeps 96 bytes per
+/// vertex out of the world for a mode that is off by default. `max_iter` bounds the quaternion iterations per node (1–3 is typical when warm
 /// started from the previous step). A node whose moment matrix is not finite (a NaN or infinite
 /// position nearby) or whose ring has no mass keeps its rotation.
 #[allow(clippy::too_many_arguments)]
@@ -344,19 +350,21 @@ pub fn update_rotations(
     ring: &[u32],
     mass: &[f32],
     rest: &[Vec3A],
-    rings: &[RestRing],
     x: &[Vec3A],
     normals: &[Vec3A],
     rot: &mut [Quat],
     max_iter: u32,
 ) -> Result<(), RotationError> {
     let n = mass.len();
-    if rest.len() != n || rings.len() != n || x.len() != n || normals.len() != n || rot.len() != n {
+    if rest.len() != n || x.len() != n || normals.len() != n || rot.len() != n {
         return Err(RotationError::LengthMismatch);
     }
     check_rings(n, ring_start, ring)?;
+    if mass.iter().any(|&m| !(m.is_finite() && m > 0.0)) || rest.iter().any(|p| !p.is_finite()) {
+        return Err(RotationError::BadMass);
+    }
     for (i, q) in rot.iter_mut().enumerate() {
-        let rr = &rings[i];
+        let rr = &rest_ring(ring_start, ring, mass, rest, i);
         if !(rr.mass.is_finite() && rr.mass > 0.0) {
             continue;
         }
@@ -639,14 +647,12 @@ mod tests {
         }
         /// Rotations for positions `x`, starting from `rot`.
         fn rotations(&self, x: &[Vec3A], rot: &mut [Quat], max_iter: u32) {
-            let rings = self.rings();
             let normals = self.normals(x);
             update_rotations(
                 &self.ring_start,
                 &self.ring,
                 &self.mass,
                 &self.rest,
-                &rings,
                 x,
                 &normals,
                 rot,
@@ -1104,7 +1110,7 @@ mod tests {
         let mut rot = vec![Quat::IDENTITY; 8];
         let n = vec![Vec3A::Z; 9];
         assert_eq!(
-            update_rotations(rs, r, m, x, &rings, x, &n, &mut rot, 1),
+            update_rotations(rs, r, m, x, x, &n, &mut rot, 1),
             Err(RotationError::LengthMismatch)
         );
     }

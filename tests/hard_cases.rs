@@ -357,14 +357,20 @@ fn sliver_triangles_and_a_single_triangle() {
         let mut w = world(&mut mem, &sheet, &mats, damped);
         pin_top_corners(&mut w, &sheet);
         let r = run(&mut w, 2000, |_, _| {});
-        assert!(
-            r.peak_kinetic < energy_bound(&w, 1.0),
-            "aspect {aspect}: {r:?}"
-        );
         if aspect <= 100.0 {
+            assert!(
+                r.peak_kinetic < energy_bound(&w, 1.0),
+                "aspect {aspect}: {r:?}"
+            );
             assert_eq!(r.failed_steps, 0, "{r:?}");
             assert_settled(&w, 1.0, "cloth with a 1:100 sliver seam");
         } else {
+            // beyond f32 resolution: not stable (README, "Limits"); what must hold is that the
+            // step says so (Unstable) and every refused step kept its state (checked in `run`)
+            assert!(
+                r.failed_steps > 0,
+                "a 1:1000 seam gains energy unnoticed: {r:?}"
+            );
             println!("aspect 1:{aspect}: {r:?}");
         }
     }
@@ -466,5 +472,67 @@ density = 0.1
             "scale {scale}: {r:?}"
         );
         assert_settled(&w, scale, &format!("scale {scale}"));
+    }
+}
+
+/// Regression (found through the C examples): a sphere pushed head-on into a flat, vertically
+/// hanging cloth. The first contact step's solve bottomed out at the f32 noise floor and the
+/// PCG residual then diverged, throwing the cloth to ~1e7 m/s. The divergence guard stops it.
+#[test]
+fn a_sphere_pushed_into_a_flat_hanging_cloth() {
+    let bytes = blob_of(
+        "pushed",
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/cells/stripes.toml"))
+            .unwrap(),
+    );
+    let blob = Blob::parse(&bytes).unwrap();
+    let (cols, rows, width) = (10usize, 8usize, 0.45f32);
+    let h = width / (cols - 1) as f32;
+    let mut sheet = Sheet::grid(cols, rows, width, h * (rows - 1) as f32);
+    sheet.transform(|p| [p[0], 0.0, 2.0 - (h * (rows - 1) as f32 - p[1])]);
+    for substeps in [1, 2] {
+        let mut mem = memory(&sheet.capacity());
+        let settings = Settings {
+            substeps,
+            ..Settings::default()
+        };
+        let mut w = World::new(
+            &mut mem,
+            sheet.capacity(),
+            &sheet.def(),
+            Materials::Blob(&blob),
+            settings,
+        )
+        .unwrap();
+        for i in 0..cols {
+            let k = sheet.index(i, rows - 1);
+            w.set_pin(k, sheet.positions[k as usize]).unwrap();
+        }
+        let sphere = |y: f32| Shape::Sphere {
+            center: Vec3A::new(0.2, y, 1.8),
+            radius: 0.1,
+        };
+        w.add_collider(Collider::new(sphere(0.3), 0.4, 0.005))
+            .unwrap();
+        let r = run(&mut w, 120, |w, f| {
+            let s = (f + 1) as f32 / 120.0;
+            w.set_collider_shape(0, sphere(0.3 - 0.5 * s)).unwrap();
+        });
+        let fastest = w
+            .velocities()
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0, f32::max);
+        // the sphere moves at 0.25 m/s; the cloth may be flicked, not launched
+        assert!(
+            fastest < 5.0,
+            "substeps {substeps}: fastest {fastest} m/s, {r:?}"
+        );
+        for (k, p) in w.positions().iter().enumerate() {
+            assert!(
+                sphere(0.3 - 0.5).proximity(*p).distance > 0.005 - 1e-5,
+                "vertex {k} inside the sphere"
+            );
+        }
     }
 }

@@ -604,3 +604,32 @@ fn cloth_at_rest_sleeps_and_wakes() {
     assert!(!w.step().unwrap().asleep);
     assert_ne!(w.positions(), &frozen[..]);
 }
+
+/// The memory aim: a 64×64-vertex world (and the default C capacity, which holds one) in
+/// under 4 MB of caller memory, all of it inside the block.
+#[test]
+fn a_64x64_world_fits_in_4_mb() {
+    let grid = Capacity::grid(64);
+    assert!(
+        grid.world_bytes() < 4_000_000,
+        "{} bytes",
+        grid.world_bytes()
+    );
+    let d = Capacity::DEFAULT;
+    assert!(d.vertices >= grid.vertices && d.triangles >= grid.triangles && d.edges >= grid.edges);
+    assert!(d.colliders >= 8);
+    assert!(d.world_bytes() < 4_000_000, "{} bytes", d.world_bytes());
+    // and a world really is built in exactly that many bytes
+    let sheet = Sheet::grid(64, 64, 1.0, 1.0);
+    let mats = [anisotropic()];
+    let mut mem = vec![0u8; d.world_bytes()];
+    let mut w = World::new(
+        &mut mem,
+        d,
+        &sheet.def(),
+        Materials::Table(&mats),
+        Settings::default(),
+    )
+    .unwrap();
+    assert!(w.step().is_ok());
+}

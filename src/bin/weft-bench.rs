@@ -37,6 +37,10 @@ struct Args {
     tolerance: f32,
     #[arg(long, default_value_t = 1)]
     substeps: u32,
+    /// Run exactly N CG iterations per solve (tolerance 0): equal solver work in every
+    /// configuration, so an effects table shows each effect's own cost.
+    #[arg(long)]
+    iterations: Option<u32>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -81,14 +85,12 @@ struct Run {
     world_bytes: usize,
 }
 
-fn run(
-    blob: &Blob<'_>,
-    grid: u32,
-    steps: u32,
-    mask: u32,
-    tolerance: f32,
-    substeps: u32,
-) -> Result<Run, String> {
+fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
+    let (grid, steps, substeps) = (args.grid, args.steps, args.substeps);
+    let (tolerance, max_iterations) = match args.iterations {
+        Some(n) => (f32::MIN_POSITIVE, n.max(1)),
+        None => (args.tolerance, Settings::default().max_iterations),
+    };
     let n = grid as usize;
     let mut positions = vec![[0.0f32; 3]; n * n];
     let mut uvs = vec![[0.0f32; 2]; n * n];
@@ -108,6 +110,7 @@ fn run(
         time_step: 1.0 / 60.0,
         substeps,
         tolerance,
+        max_iterations,
         wind: [0.0, 3.0, 0.0],
         drag: 0.2,
         ..Settings::default()
@@ -177,22 +180,8 @@ fn real_main(args: &Args) -> Result<(), String> {
     let blob = Blob::parse(&aligned).map_err(|e| format!("blob: {e}"))?;
     let mask = parse_effects(&args.effects)?;
     if args.effects_table {
-        let all = run(
-            &blob,
-            args.grid,
-            args.steps,
-            mask,
-            args.tolerance,
-            args.substeps,
-        )?;
-        let none = run(
-            &blob,
-            args.grid,
-            args.steps,
-            0,
-            args.tolerance,
-            args.substeps,
-        )?;
+        let all = run(&blob, args, mask)?;
+        let none = run(&blob, args, 0)?;
         println!(
             "grid {0}×{0}, {1} steps, median µs per step (ratios from the same run)",
             args.grid, args.steps
@@ -209,14 +198,7 @@ fn real_main(args: &Args) -> Result<(), String> {
             if mask & bit == 0 {
                 continue;
             }
-            let r = run(
-                &blob,
-                args.grid,
-                args.steps,
-                mask & !bit,
-                args.tolerance,
-                args.substeps,
-            )?;
+            let r = run(&blob, args, mask & !bit)?;
             println!(
                 "{:<22} {:>10.1} {:>10.3} {:>8.1}",
                 format!("all but {name}"),
@@ -234,14 +216,7 @@ fn real_main(args: &Args) -> Result<(), String> {
         );
         return Ok(());
     }
-    let r = run(
-        &blob,
-        args.grid,
-        args.steps,
-        mask,
-        args.tolerance,
-        args.substeps,
-    )?;
+    let r = run(&blob, args, mask)?;
     if args.json {
         println!(
             "{}",

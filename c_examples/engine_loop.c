@@ -1,0 +1,481 @@
+/*
+ * engine_loop.c: what a game engine does with weft, frame by frame.
+ *
+ * - the world lives in a static block sized by WEFT_DEFAULT_WORLD_MEMORY_SIZE (checked against
+ *   weft_world_memory_size at start-up);
+ * - the cloth is read from, and written back to, an interleaved, packed vertex buffer (23-byte
+ *   vertices, positions at byte 1: every float is unaligned) through (pointer, count, stride);
+ * - a sphere and a capsule move under the cloth, and the two pinned corners follow an
+ *   animated target;
+ * - effects are toggled at run time (bending off and on, wind on);
+ * - the cloth settles and goes to sleep, and an edit wakes it;
+ * - errors: a corrupt, a truncated and a foreign blob, a bad mesh, a too-small capacity, an
+ *   uninitialized def, a NULL argument: each is reported with its detail;
+ * - the last frame is written as an OBJ (argv[2]).
+ *
+ *   cc -std=c11 -I include c_examples/engine_loop.c target/ship/libweft.a -o engine_loop
+ *   ./engine_loop cells.weft last_frame.obj
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "weft.h"
+
+#define N 12                 /* vertices along each side of the cloth */
+#define SIDE 0.6f            /* metres */
+#define VERTS (N * N)
+#define TRIS (2 * (N - 1) * (N - 1))
+#define STRIDE 23            /* bytes per vertex in the render buffer */
+#define POS_AT 1             /* byte offset of the position inside a vertex */
+#define UV_AT 13             /* byte offset of the (u, v) inside a vertex */
+#define DT (1.0f / 60.0f)
+
+/* The engine's render vertex buffer: packed, interleaved, nothing aligned. */
+static unsigned char vertex_buffer[VERTS * STRIDE];
+static uint32_t indices[3 * TRIS];
+/* The world's home: static memory, aligned as weft requires. */
+static _Alignas(WEFT_WORLD_MEMORY_ALIGN) unsigned char world_memory[WEFT_DEFAULT_WORLD_MEMORY_SIZE];
+
+static int errors_seen = 0;
+
+static WeftVec3 vec3(float x, float y, float z)
+{
+    WeftVec3 v;
+    v.x = x;
+    v.y = y;
+    v.z = z;
+    return v;
+}
+
+static void report(const char *what, WeftResult r, const WeftErrorDetail *d)
+{
+    printf("%s: %s", what, weft_result_string(r));
+    if (d != NULL) {
+        if (d->triangle != WEFT_NONE)
+            printf(" [triangle %u]", (unsigned)d->triangle);
+        if (d->vertex != WEFT_NONE)
+            printf(" [vertex %u]", (unsigned)d->vertex);
+        if (d->needed != WEFT_NONE)
+            printf(" [needed %u]", (unsigned)d->needed);
+        if (d->capacity != WEFT_NONE)
+            printf(" [capacity %u]", (unsigned)d->capacity);
+        if (d->material != WEFT_NONE)
+            printf(" [material %u]", (unsigned)d->material);
+        if (d->cell != WEFT_NONE)
+            printf(" [cell %u]", (unsigned)d->cell);
+        if (d->what[0] != '\0')
+            printf(" [%s]", d->what);
+    }
+    printf("\n");
+}
+
+/* An expected failure: reports it, and counts it as a test failure if the result differs. */
+static void expect(const char *what, WeftResult got, WeftResult want, const WeftErrorDetail *d)
+{
+    report(what, got, d);
+    if (got != want) {
+        printf("  UNEXPECTED: wanted %s\n", weft_result_string(want));
+        ++errors_seen;
+    }
+}
+
+/* A call that must succeed in this program. */
+#define MUST(call)                                                                  \
+    do {                                                                            \
+        WeftResult must_r = (call);                                                 \
+        if (must_r != WEFT_RESULT_OK) {                                             \
+            fprintf(stderr, "%s:%d: %s: %s\n", __FILE__, __LINE__, #call,           \
+                    weft_result_string(must_r));                                    \
+            exit(1);                                                                \
+        }                                                                           \
+    } while (0)
+
+static float absf(float x) { return x < 0.0f ? -x : x; }
+
+/* A periodic wave going 0 -> 1 -> 0 over each unit of t >= 0 (no libm needed). */
+static float wave(float t)
+{
+    float x = t - (float)(long)t; /* fractional part */
+    return 4.0f * x * (1.0f - x);
+}
+
+/* Where the colliders are at time t (seconds): they sweep under the cloth for 4 s. */
+static WeftShape sphere_at(float t)
+{
+    return weft_shape_sphere(vec3(-0.2f + 0.1f * t, 0.05f * wave(t), 0.15f), 0.12f);
+}
+
+static WeftShape capsule_at(float t)
+{
+    return weft_shape_capsule(vec3(0.1f, -0.3f, 0.2f + 0.05f * wave(t)),
+                              vec3(0.1f + 0.1f * wave(0.5f * t), 0.3f, 0.2f), 0.05f);
+}
+
+static void *read_file(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    void *bytes = NULL;
+    long n;
+    if (f == NULL)
+        return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0) {
+        bytes = malloc((size_t)n);
+        if (bytes != NULL && fread(bytes, 1, (size_t)n, f) != (size_t)n) {
+            free(bytes);
+            bytes = NULL;
+        }
+        *size = (size_t)n;
+    }
+    fclose(f);
+    return bytes;
+}
+
+static void put_vec(unsigned char *at, float x, float y, float z)
+{
+    float v[3];
+    v[0] = x;
+    v[1] = y;
+    v[2] = z;
+    memcpy(at, v, sizeof v);
+}
+
+static WeftVec3 get_pos(uint32_t vertex)
+{
+    WeftVec3 p;
+    memcpy(&p, vertex_buffer + (size_t)vertex * STRIDE + POS_AT, sizeof p);
+    return p;
+}
+
+
+/* Fills the render buffer with a flat cloth at height z, hanging in the x-y plane. */
+static void build_mesh(float z)
+{
+    int i, j, t = 0;
+    for (j = 0; j < N; ++j) {
+        for (i = 0; i < N; ++i) {
+            unsigned char *v = vertex_buffer + (size_t)(j * N + i) * STRIDE;
+            float u = SIDE * (float)i / (N - 1) - 0.5f * SIDE, w = SIDE * (float)j / (N - 1);
+            float uv[2];
+            v[0] = 0x5a; /* an engine flag byte */
+            put_vec(v + POS_AT, u, w - 0.5f * SIDE, z);
+            uv[0] = u + 0.5f * SIDE;
+            uv[1] = w;
+            memcpy(v + UV_AT, uv, sizeof uv);
+        }
+    }
+    for (j = 0; j < N - 1; ++j) {
+        for (i = 0; i < N - 1; ++i) {
+            uint32_t ll = (uint32_t)(j * N + i), lr = ll + 1, ul = ll + N, ur = ul + 1;
+            indices[t++] = ll;
+            indices[t++] = lr;
+            indices[t++] = ur;
+            indices[t++] = ll;
+            indices[t++] = ur;
+            indices[t++] = ul;
+        }
+    }
+}
+
+static WeftWorldDef cloth_def(void)
+{
+    WeftWorldDef def = weft_default_world_def();
+    def.positions = vertex_buffer + POS_AT;
+    def.position_stride = STRIDE;
+    def.uvs = vertex_buffer + UV_AT;
+    def.uv_stride = STRIDE;
+    def.vertex_count = VERTS;
+    def.indices = indices;
+    def.triangle_count = TRIS;
+    def.material = 0;
+    def.settings.substeps = 2;
+    return def;
+}
+
+/* Every error path an engine should handle, each reported with its detail. */
+static void error_handling(const unsigned char *blob_bytes, size_t blob_size, const WeftBlob *blob)
+{
+    WeftErrorDetail d;
+    WeftBlob bad;
+    WeftWorld *w = NULL;
+    WeftWorldDef def;
+    unsigned char *copy = malloc(blob_size);
+    uint32_t saved;
+    if (copy == NULL)
+        exit(1);
+
+    /* A corrupt blob: one byte flipped in the middle. */
+    memcpy(copy, blob_bytes, blob_size);
+    copy[blob_size / 2] ^= 0x40;
+    expect("corrupt blob", weft_blob_parse(copy, blob_size, &bad, &d), WEFT_RESULT_BLOB_CHECKSUM,
+           &d);
+    /* A truncated download. */
+    memcpy(copy, blob_bytes, blob_size);
+    expect("truncated blob", weft_blob_parse(copy, blob_size - 100, &bad, &d),
+           WEFT_RESULT_BLOB_SIZE, &d);
+    /* Not a blob at all. */
+    memset(copy, 'x', blob_size);
+    expect("foreign file", weft_blob_parse(copy, blob_size, &bad, &d), WEFT_RESULT_BLOB_BAD_MAGIC,
+           &d);
+    free(copy);
+
+    /* A bad mesh: a triangle names a vertex that does not exist. */
+    def = cloth_def();
+    saved = indices[3 * 7 + 2];
+    indices[3 * 7 + 2] = VERTS + 5;
+    expect("bad mesh", weft_world_create(&def, blob, world_memory, sizeof world_memory, &w, &d),
+           WEFT_RESULT_MESH_INDEX_OUT_OF_RANGE, &d);
+    if (d.triangle != 7)
+        ++errors_seen;
+    indices[3 * 7 + 2] = saved;
+    /* A triangle material that is not a cell of the blob. */
+    def = cloth_def();
+    def.material = blob->cell_count;
+    expect("bad material", weft_world_create(&def, blob, world_memory, sizeof world_memory, &w, &d),
+           WEFT_RESULT_MATERIAL_OUT_OF_RANGE, &d);
+    /* A capacity too small for the mesh. */
+    def = cloth_def();
+    def.capacity.max_vertices = VERTS - 1;
+    expect("small capacity", weft_world_create(&def, blob, world_memory, sizeof world_memory, &w, &d),
+           WEFT_RESULT_VERTEX_CAPACITY, &d);
+    if (d.needed != VERTS || d.capacity != VERTS - 1)
+        ++errors_seen;
+    /* A setting out of range. */
+    def = cloth_def();
+    def.settings.substeps = 0;
+    expect("bad setting", weft_world_create(&def, blob, world_memory, sizeof world_memory, &w, &d),
+           WEFT_RESULT_INVALID_SETTING, &d);
+    /* A def that did not come from weft_default_world_def. */
+    memset(&def, 0, sizeof def);
+    expect("uninitialized def",
+           weft_world_create(&def, blob, world_memory, sizeof world_memory, &w, &d),
+           WEFT_RESULT_UNINITIALIZED, &d);
+    /* Too little memory, and a NULL out-pointer. */
+    def = cloth_def();
+    expect("small memory", weft_world_create(&def, blob, world_memory, 4096, &w, &d),
+           WEFT_RESULT_MEMORY_TOO_SMALL, &d);
+    expect("NULL out_world",
+           weft_world_create(&def, blob, world_memory, sizeof world_memory, NULL, &d),
+           WEFT_RESULT_NULL_POINTER, &d);
+    if (w != NULL) {
+        printf("  UNEXPECTED: a failed create wrote its output\n");
+        ++errors_seen;
+    }
+}
+
+static void write_obj(const char *path, WeftWorld *world)
+{
+    FILE *f = fopen(path, "w");
+    int i;
+    if (f == NULL) {
+        fprintf(stderr, "cannot write %s\n", path);
+        exit(1);
+    }
+    /* The render buffer holds the last frame: write it as the engine would draw it. */
+    MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+    fprintf(f, "# weft engine_loop: last frame\n");
+    for (i = 0; i < VERTS; ++i) {
+        WeftVec3 p = get_pos((uint32_t)i);
+        fprintf(f, "v %.6f %.6f %.6f\n", (double)p.x, (double)p.y, (double)p.z);
+    }
+    for (i = 0; i < TRIS; ++i)
+        fprintf(f, "f %u %u %u\n", (unsigned)indices[3 * i] + 1, (unsigned)indices[3 * i + 1] + 1,
+                (unsigned)indices[3 * i + 2] + 1);
+    fclose(f);
+    printf("wrote %s (%d vertices, %d triangles)\n", path, VERTS, TRIS);
+}
+
+int main(int argc, char **argv)
+{
+    unsigned char *bytes;
+    size_t blob_size = 0, needed = 0;
+    WeftBlob blob;
+    WeftErrorDetail d;
+    WeftWorldDef def;
+    WeftWorld *world = NULL;
+    WeftColliderDef cdef;
+    WeftSettings settings;
+    WeftStepStats stats;
+    uint32_t sphere, capsule, corner_a = VERTS - N, corner_b = VERTS - 1;
+    WeftVec3 anchor_a, anchor_b;
+    int frame, asleep_at = -1, max_contacts = 0;
+    float max_speed2 = 0.0f;
+
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s CELLS.weft OUT.obj\n", argv[0]);
+        return 2;
+    }
+    bytes = read_file(argv[1], &blob_size);
+    if (bytes == NULL) {
+        fprintf(stderr, "cannot read %s\n", argv[1]);
+        return 1;
+    }
+    if (weft_blob_parse(bytes, blob_size, &blob, &d) != WEFT_RESULT_OK) {
+        report("blob", d.result, &d);
+        return 1;
+    }
+
+    /* The static block must be big enough for the capacity we use. */
+    build_mesh(0.5f);
+    def = cloth_def();
+    MUST(weft_world_memory_size(&def.capacity, &needed));
+    printf("world memory: %zu bytes needed, %zu reserved\n", needed, sizeof world_memory);
+    if (needed > sizeof world_memory)
+        return 1;
+
+    error_handling(bytes, blob_size, &blob);
+
+    /* The real world. A failed create above left the block free for this. */
+    build_mesh(0.5f);
+    def = cloth_def();
+    def.settings.effects |= WEFT_EFFECT_SLEEP;
+    if (weft_world_create(&def, &blob, world_memory, sizeof world_memory, &world, &d) !=
+        WEFT_RESULT_OK) {
+        report("create", d.result, &d);
+        return 1;
+    }
+
+    /* Colliders: the floor, a sphere and a capsule that move under the cloth. */
+    cdef = weft_default_collider_def();
+    cdef.shape = weft_shape_plane(vec3(0.0f, 0.0f, 1.0f), -0.4f);
+    MUST(weft_world_add_collider(world, &cdef, NULL));
+    cdef.shape = sphere_at(0.0f);
+    cdef.friction = 0.3f;
+    MUST(weft_world_add_collider(world, &cdef, &sphere));
+    cdef.shape = capsule_at(0.0f);
+    MUST(weft_world_add_collider(world, &cdef, &capsule));
+
+    /* Pins: the two far corners, driven by an animated anchor. */
+    anchor_a = get_pos(corner_a);
+    anchor_b = get_pos(corner_b);
+    MUST(weft_world_set_pin(world, corner_a, anchor_a));
+    MUST(weft_world_set_pin(world, corner_b, anchor_b));
+
+    for (frame = 1; frame <= 900; ++frame) {
+        float t = (float)frame * DT;
+        WeftResult r;
+        if (frame <= 240) {
+            /* Animate: the anchor sways along x, the colliders move. */
+            float sway = 0.1f * wave(0.5f * t);
+            WeftShape s = sphere_at(t);
+            MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x + sway, anchor_a.y, anchor_a.z)));
+            MUST(weft_world_set_pin(world, corner_b, vec3(anchor_b.x + sway, anchor_b.y, anchor_b.z)));
+            MUST(weft_world_set_collider(world, sphere, &s));
+            s = capsule_at(t);
+            MUST(weft_world_set_collider(world, capsule, &s));
+        }
+        /* Effects change at run time. */
+        if (frame == 60) {
+            MUST(weft_world_get_settings(world, &settings));
+            MUST(weft_world_set_effects(world, settings.effects & ~WEFT_EFFECT_BENDING));
+            printf("frame %d: bending off\n", frame);
+        }
+        if (frame == 120) {
+            MUST(weft_world_get_settings(world, &settings));
+            settings.effects |= WEFT_EFFECT_BENDING | WEFT_EFFECT_WIND;
+            settings.wind = vec3(2.0f, 0.0f, 0.0f);
+            settings.drag = 0.5f;
+            MUST(weft_world_set_settings(world, &settings));
+            printf("frame %d: bending on, wind on\n", frame);
+        }
+        if (frame == 241) {
+            /* Calm down: no wind, colliders away, more damping, so the cloth can sleep. */
+            MUST(weft_world_clear_colliders(world));
+            MUST(weft_world_get_settings(world, &settings));
+            settings.effects &= ~WEFT_EFFECT_WIND;
+            settings.damping_mass = 3.0f;
+            settings.sleep_velocity = 0.01f;
+            settings.sleep_frames = 10;
+            MUST(weft_world_set_settings(world, &settings));
+            printf("frame %d: colliders cleared, wind off, settling\n", frame);
+        }
+        r = weft_world_step(world, DT, &stats);
+        if (r != WEFT_RESULT_OK) {
+            WeftErrorDetail e;
+            MUST(weft_world_last_error_detail(world, &e));
+            report("step", r, &e);
+            return 1;
+        }
+        if ((int)stats.contacts > max_contacts)
+            max_contacts = (int)stats.contacts;
+        /* A sanity check an engine may afford: nothing moves faster than 20 m/s. */
+        {
+            static WeftVec3 v[VERTS];
+            int i;
+            MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3)));
+            for (i = 0; i < VERTS; ++i) {
+                float s2 = v[i].x * v[i].x + v[i].y * v[i].y + v[i].z * v[i].z;
+                if (s2 > max_speed2)
+                    max_speed2 = s2;
+            }
+            if (!(max_speed2 < 400.0f)) {
+                printf("frame %d: the cloth exploded (speed^2 %g)\n", frame, (double)max_speed2);
+                return 1;
+            }
+        }
+        /* The engine's render buffer gets the new positions, in place. */
+        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+        if (asleep_at < 0 && weft_world_is_asleep(world)) {
+            asleep_at = frame;
+            printf("frame %d: asleep\n", frame);
+            break;
+        }
+    }
+    printf("most contacts in a frame: %d, top speed^2 %.3g m^2/s^2\n", max_contacts, (double)max_speed2);
+    if (asleep_at < 0) {
+        printf("never fell asleep\n");
+        return 1;
+    }
+    MUST(weft_world_step(world, DT, &stats));
+    printf("asleep step: %s, %u substeps\n", stats.asleep ? "skipped" : "ran", (unsigned)stats.substeps);
+    /* Pulling a pin wakes it. */
+    MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x, anchor_a.y, anchor_a.z + 0.05f)));
+    MUST(weft_world_step(world, DT, &stats));
+    printf("after moving a pin: %s\n", weft_world_is_asleep(world) ? "asleep" : "awake");
+    if (weft_world_is_asleep(world) || stats.asleep)
+        ++errors_seen;
+
+    /* Runtime errors are reported too; the world stays usable. */
+    expect("pin out of range", weft_world_set_pin(world, VERTS, anchor_a), WEFT_RESULT_VERTEX_OUT_OF_RANGE, NULL);
+    MUST(weft_world_last_error_detail(world, &d));
+    if (d.vertex != VERTS)
+        ++errors_seen;
+    expect("zero dt", weft_world_step(world, 0.0f, NULL), WEFT_RESULT_INVALID_TIME_STEP, NULL);
+    expect("short buffer", weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS - 1, STRIDE),
+           WEFT_RESULT_COUNT_MISMATCH, NULL);
+    expect("overlapping stride", weft_world_get_positions(world, vertex_buffer, VERTS, 8),
+           WEFT_RESULT_INVALID_ARGUMENT, NULL);
+    expect("unknown effect bit", weft_world_set_effects(world, 1u << 30), WEFT_RESULT_INVALID_SETTING, NULL);
+
+    {
+        /* The pinned corner is on its target; nothing went through the floor. */
+        WeftVec3 a = get_pos(corner_a);
+        float lowest = 1.0f;
+        int i;
+        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+        a = get_pos(corner_a);
+        for (i = 0; i < VERTS; ++i) {
+            WeftVec3 p = get_pos((uint32_t)i);
+            if (p.z < lowest)
+                lowest = p.z;
+            if (vertex_buffer[(size_t)i * STRIDE] != 0x5a) {
+                printf("weft wrote outside the position bytes of vertex %d\n", i);
+                ++errors_seen;
+            }
+        }
+        printf("pinned corner z = %.4f, lowest z = %.4f\n", (double)a.z, (double)lowest);
+        if (absf(a.z - (anchor_a.z + 0.05f)) > 1e-4f || lowest < -0.4f - 1e-3f)
+            ++errors_seen;
+    }
+
+    write_obj(argv[2], world);
+    MUST(weft_world_destroy(world));
+    expect("destroyed handle", weft_world_step(world, DT, NULL), WEFT_RESULT_INVALID_HANDLE, NULL);
+    free(bytes);
+    if (errors_seen != 0) {
+        printf("engine_loop: %d unexpected results\n", errors_seen);
+        return 1;
+    }
+    printf("engine_loop: ok\n");
+    return 0;
+}

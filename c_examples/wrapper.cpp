@@ -1,0 +1,336 @@
+// wrapper.cpp: a small C++17 RAII wrapper over weft's C API, used the way an engine's cloth
+// component would use it.
+//
+//   c++ -std=c++17 -I include c_examples/wrapper.cpp target/ship/libweft.a -o wrapper
+//   ./wrapper cells.weft
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "weft.h"
+
+namespace weft {
+
+// A failed call, with where it failed.
+class Error : public std::runtime_error {
+public:
+    Error(const char* call, WeftResult result, const WeftErrorDetail& detail)
+        : std::runtime_error(describe(call, result, detail)), result_(result), detail_(detail) {}
+    WeftResult result() const noexcept { return result_; }
+    const WeftErrorDetail& detail() const noexcept { return detail_; }
+
+private:
+    static std::string describe(const char* call, WeftResult r, const WeftErrorDetail& d) {
+        std::string s = std::string(call) + ": " + weft_result_string(r);
+        auto add = [&](const char* name, std::uint32_t v) {
+            if (v != WEFT_NONE) s += std::string(", ") + name + " " + std::to_string(v);
+        };
+        add("triangle", d.triangle);
+        add("vertex", d.vertex);
+        add("material", d.material);
+        add("cell", d.cell);
+        add("needed", d.needed);
+        add("capacity", d.capacity);
+        if (d.what[0] != '\0') s += std::string(" (") + d.what + ")";
+        return s;
+    }
+    WeftResult result_;
+    WeftErrorDetail detail_;
+};
+
+namespace detail {
+inline WeftErrorDetail none() {
+    WeftErrorDetail d{};
+    d.result = WEFT_RESULT_OK;
+    d.triangle = d.vertex = d.vertex_b = d.material = d.cell = d.index = d.needed = d.capacity =
+        WEFT_NONE;
+    d.what = "";
+    return d;
+}
+inline void check(const char* call, WeftResult r) {
+    if (r != WEFT_RESULT_OK) throw Error(call, r, none());
+}
+}  // namespace detail
+
+// Owns a blob file's bytes (8-aligned) and its parsed view. Movable: the bytes stay put.
+class Blob {
+public:
+    static Blob load(const std::string& path) {
+        std::ifstream f(path, std::ios::binary);
+        if (!f) throw std::runtime_error("cannot open " + path);
+        std::vector<char> raw((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+        Blob b;
+        b.size_ = raw.size();
+        b.words_.resize((raw.size() + 7) / 8);  // uint64_t storage: WEFT_BLOB_ALIGN-aligned
+        std::memcpy(b.words_.data(), raw.data(), raw.size());
+        WeftErrorDetail d;
+        WeftResult r = weft_blob_parse(b.words_.data(), b.size_, &b.blob_, &d);
+        if (r != WEFT_RESULT_OK) throw Error("weft_blob_parse", r, d);
+        return b;
+    }
+    const WeftBlob* get() const noexcept { return &blob_; }
+    std::uint32_t cell_count() const noexcept { return blob_.cell_count; }
+    WeftCellInfo cell(std::uint32_t i) const {
+        WeftCellInfo info;
+        detail::check("weft_blob_cell_info", weft_blob_cell_info(&blob_, i, &info));
+        return info;
+    }
+
+private:
+    Blob() = default;
+    std::vector<std::uint64_t> words_;
+    std::size_t size_ = 0;
+    WeftBlob blob_{};
+};
+
+// Owns a world and the aligned memory block it lives in. Move-only; destroyed before its memory
+// is released. The blob must outlive it.
+class World {
+public:
+    World(const WeftWorldDef& def, const Blob& blob) {
+        std::size_t size = 0;
+        detail::check("weft_world_memory_size", weft_world_memory_size(&def.capacity, &size));
+        memory_.reset(static_cast<std::byte*>(
+            ::operator new(size, std::align_val_t{weft_world_memory_align()})));
+        WeftErrorDetail d;
+        WeftResult r = weft_world_create(&def, blob.get(), memory_.get(), size, &world_, &d);
+        if (r != WEFT_RESULT_OK) throw Error("weft_world_create", r, d);
+    }
+    ~World() {
+        if (world_ != nullptr) weft_world_destroy(world_);
+    }
+    World(World&& o) noexcept
+        : memory_(std::move(o.memory_)), world_(std::exchange(o.world_, nullptr)) {}
+    World& operator=(World&& o) noexcept {
+        if (this != &o) {
+            if (world_ != nullptr) weft_world_destroy(world_);
+            world_ = std::exchange(o.world_, nullptr);
+            memory_ = std::move(o.memory_);
+        }
+        return *this;
+    }
+    World(const World&) = delete;
+    World& operator=(const World&) = delete;
+
+    WeftStepStats step(float dt) {
+        WeftStepStats s;
+        call("weft_world_step", weft_world_step(world_, dt, &s));
+        return s;
+    }
+    void pin(std::uint32_t vertex, WeftVec3 target) {
+        call("weft_world_set_pin", weft_world_set_pin(world_, vertex, target));
+    }
+    std::uint32_t add_collider(const WeftShape& shape, float friction) {
+        WeftColliderDef def = weft_default_collider_def();
+        def.shape = shape;
+        def.friction = friction;
+        std::uint32_t index = 0;
+        call("weft_world_add_collider", weft_world_add_collider(world_, &def, &index));
+        return index;
+    }
+    void move_collider(std::uint32_t index, const WeftShape& shape) {
+        call("weft_world_set_collider", weft_world_set_collider(world_, index, &shape));
+    }
+    void set_effects(std::uint32_t effects) {
+        call("weft_world_set_effects", weft_world_set_effects(world_, effects));
+    }
+    WeftSettings settings() const {
+        WeftSettings s;
+        detail::check("weft_world_get_settings", weft_world_get_settings(world_, &s));
+        return s;
+    }
+    // Copies positions into any array of structs: `member` points at the position inside the
+    // first element.
+    template <class Vertex>
+    void read_positions(std::vector<Vertex>& out, WeftVec3 Vertex::*member) const {
+        detail::check("weft_world_get_positions",
+                      weft_world_get_positions(world_, &(out.data()->*member),
+                                               static_cast<std::uint32_t>(out.size()),
+                                               sizeof(Vertex)));
+    }
+    void read_velocities(std::vector<WeftVec3>& out) const {
+        out.resize(vertex_count());
+        detail::check("weft_world_get_velocities",
+                      weft_world_get_velocities(world_, out.data(),
+                                                static_cast<std::uint32_t>(out.size()),
+                                                sizeof(WeftVec3)));
+    }
+    std::uint32_t vertex_count() const noexcept { return weft_world_vertex_count(world_); }
+    bool asleep() const noexcept { return weft_world_is_asleep(world_); }
+
+private:
+    // A failed call on the world: its detail is kept by the world.
+    void call(const char* name, WeftResult r) {
+        if (r == WEFT_RESULT_OK) return;
+        WeftErrorDetail d = detail::none();
+        weft_world_last_error_detail(world_, &d);
+        throw Error(name, r, d);
+    }
+    struct AlignedDelete {
+        void operator()(std::byte* p) const noexcept {
+            ::operator delete(p, std::align_val_t{WEFT_WORLD_MEMORY_ALIGN});
+        }
+    };
+    std::unique_ptr<std::byte, AlignedDelete> memory_;
+    WeftWorld* world_ = nullptr;
+};
+
+}  // namespace weft
+
+// ---------------------------------------------------------------------------------------------
+// An engine-side cloth component: owns its render vertices and its simulation.
+
+struct RenderVertex {
+    WeftVec3 position;
+    WeftVec3 normal;
+    WeftVec2 uv;
+};
+
+class ClothComponent {
+public:
+    // A `cols` x `rows` flag of `width` metres held along its edge at `pole`, starting out
+    // horizontal (along +y) and free to fall.
+    ClothComponent(const weft::Blob& cells, std::uint32_t cell, int cols, int rows, float width,
+                   WeftVec3 pole)
+        : cols_(cols), rows_(rows) {
+        float h = width / static_cast<float>(cols - 1);
+        for (int j = 0; j < rows; ++j)
+            for (int i = 0; i < cols; ++i) {
+                RenderVertex v{};
+                v.position = {pole.x + h * static_cast<float>(i),
+                              pole.y + h * static_cast<float>(rows - 1 - j), pole.z};
+                v.normal = {0.0f, 0.0f, 1.0f};
+                v.uv = {h * static_cast<float>(i), h * static_cast<float>(j)};
+                vertices_.push_back(v);
+            }
+        for (int j = 0; j + 1 < rows; ++j)
+            for (int i = 0; i + 1 < cols; ++i) {
+                std::uint32_t ll = static_cast<std::uint32_t>(j * cols + i), lr = ll + 1,
+                              ul = ll + static_cast<std::uint32_t>(cols), ur = ul + 1;
+                indices_.insert(indices_.end(), {ll, lr, ur, ll, ur, ul});
+            }
+        WeftWorldDef def = weft_default_world_def();
+        def.positions = &vertices_.data()->position;
+        def.position_stride = sizeof(RenderVertex);
+        def.uvs = &vertices_.data()->uv;
+        def.uv_stride = sizeof(RenderVertex);
+        def.vertex_count = static_cast<std::uint32_t>(vertices_.size());
+        def.indices = indices_.data();
+        def.triangle_count = static_cast<std::uint32_t>(indices_.size() / 3);
+        def.material = cell;
+        def.capacity.max_vertices = def.vertex_count;
+        def.capacity.max_triangles = def.triangle_count;
+        def.capacity.max_edges = 3 * def.triangle_count;
+        def.capacity.max_pins = static_cast<std::uint32_t>(cols);
+        def.settings.substeps = 2;
+        world_ = std::make_unique<weft::World>(def, cells);
+        // The edge row j = rows - 1 is held by the pole.
+        for (int i = 0; i < cols; ++i) {
+            std::uint32_t v = static_cast<std::uint32_t>((rows - 1) * cols + i);
+            world_->pin(v, vertices_[v].position);
+        }
+    }
+
+    // Called once per frame by the engine.
+    void update(float dt) {
+        last_ = world_->step(dt);
+        world_->read_positions(vertices_, &RenderVertex::position);
+        // A sanity check an engine may afford: a vertex faster than 20 m/s means trouble.
+        world_->read_velocities(velocities_);
+        for (const WeftVec3& v : velocities_) {
+            float s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+            if (s2 > top_speed2_) top_speed2_ = s2;
+        }
+        if (!(top_speed2_ < 400.0f)) throw std::runtime_error("the cloth exploded");
+    }
+    float top_speed2() const { return top_speed2_; }
+    weft::World& world() { return *world_; }
+    const std::vector<RenderVertex>& vertices() const { return vertices_; }
+    const WeftStepStats& last_step() const { return last_; }
+    int cols() const { return cols_; }
+
+private:
+    int cols_, rows_;
+    std::vector<RenderVertex> vertices_;
+    std::vector<std::uint32_t> indices_;
+    std::vector<WeftVec3> velocities_ = std::vector<WeftVec3>(vertices_.size());
+    std::unique_ptr<weft::World> world_;
+    WeftStepStats last_{};
+    float top_speed2_ = 0.0f;
+};
+
+int main(int argc, char** argv) {
+    if (argc < 2) {
+        std::fprintf(stderr, "usage: %s CELLS.weft\n", argv[0]);
+        return 2;
+    }
+    try {
+        weft::Blob cells = weft::Blob::load(argv[1]);
+        WeftCellInfo info = cells.cell(0);
+        std::printf("blob: %u cell(s), cell 0 is '%s'\n", cells.cell_count(), info.name);
+
+        // A flag held along its edge at 2 m falls onto a ball rolling past below.
+        ClothComponent flag(cells, 0, 10, 8, 0.45f, WeftVec3{0.0f, 0.0f, 2.0f});
+        auto ball_at = [](float t) { return weft_shape_sphere({0.1f + 0.2f * t, 0.2f, 1.7f}, 0.1f); };
+        std::uint32_t ball = flag.world().add_collider(ball_at(0.0f), 0.4f);
+        int most_contacts = 0;
+        for (int frame = 1; frame <= 120; ++frame) {
+            float t = static_cast<float>(frame) / 60.0f;
+            flag.world().move_collider(ball, ball_at(t));
+            if (frame == 90)  // the ball is gone: stop paying for collision
+                flag.world().set_effects(flag.world().settings().effects & ~WEFT_EFFECT_COLLISION);
+            flag.update(1.0f / 60.0f);
+            if (static_cast<int>(flag.last_step().contacts) > most_contacts)
+                most_contacts = static_cast<int>(flag.last_step().contacts);
+        }
+        const RenderVertex& corner = flag.vertices().front();
+        const RenderVertex& held = flag.vertices().back();
+        std::printf("after 120 frames: free corner at (%.3f, %.3f, %.3f), held corner z %.3f, "
+                    "%d contacts at most, top speed %.2f m/s\n",
+                    static_cast<double>(corner.position.x), static_cast<double>(corner.position.y),
+                    static_cast<double>(corner.position.z), static_cast<double>(held.position.z),
+                    most_contacts, static_cast<double>(std::sqrt(flag.top_speed2())));
+        if (std::fabs(held.position.z - 2.0f) > 1e-5f || !(corner.position.z < 1.8f) ||
+            most_contacts == 0) {
+            std::printf("the flag did not fall onto the ball\n");
+            return 1;
+        }
+
+        // Errors arrive as exceptions carrying the detail.
+        try {
+            flag.world().pin(100000, WeftVec3{0.0f, 0.0f, 0.0f});
+            std::printf("an out-of-range pin was accepted\n");
+            return 1;
+        } catch (const weft::Error& e) {
+            std::printf("caught: %s\n", e.what());
+            if (e.result() != WEFT_RESULT_VERTEX_OUT_OF_RANGE || e.detail().vertex != 100000)
+                return 1;
+        }
+        try {
+            ClothComponent missing(cells, 7, 10, 8, 0.45f, WeftVec3{0.0f, 0.0f, 2.0f});
+            std::printf("a missing cell was accepted\n");
+            return 1;
+        } catch (const weft::Error& e) {
+            std::printf("caught: %s\n", e.what());
+            if (e.result() != WEFT_RESULT_MATERIAL_OUT_OF_RANGE) return 1;
+        }
+        // Worlds move without copying: the handle and its block travel together.
+        weft::World moved = std::move(flag.world());
+        std::printf("moved world: %u vertices\n", moved.vertex_count());
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "error: %s\n", e.what());
+        return 1;
+    }
+    std::printf("wrapper: ok\n");
+    return 0;
+}
