@@ -30,17 +30,17 @@ const LEGEND_PER_LINE: usize = 4;
 const ROW_HEIGHT: usize = TITLE_H + LABEL_H + PANEL + LEGEND_GAP + LEGEND_LINES * LINE_H + GAP;
 const WIDTH: usize = 2 * MARGIN + 4 * PANEL + 3 * GAP;
 /// Font magnification: 5×7 glyphs drawn as 10×14.
-const FONT_SCALE: usize = 2;
+pub(crate) const FONT_SCALE: usize = 2;
 /// Largest displacement as a fraction of the cell's larger side.
 const EXAGGERATION: f64 = 0.15;
 
-type Rgb = [u8; 3];
-const WHITE: Rgb = [255, 255, 255];
+pub(crate) type Rgb = [u8; 3];
+pub(crate) const WHITE: Rgb = [255, 255, 255];
 const PANEL_BG: Rgb = [242, 242, 242];
-const INK: Rgb = [20, 20, 20];
+pub(crate) const INK: Rgb = [20, 20, 20];
 const OUTLINE: Rgb = [40, 40, 40];
 /// Tableau-10: distinct at a glance, readable by most colour-blind viewers.
-const PALETTE: [Rgb; 10] = [
+pub(crate) const PALETTE: [Rgb; 10] = [
     [78, 121, 167],
     [242, 142, 43],
     [225, 87, 89],
@@ -53,7 +53,7 @@ const PALETTE: [Rgb; 10] = [
     [186, 176, 172],
 ];
 
-fn material_colour(m: u32) -> Rgb {
+pub(crate) fn material_colour(m: u32) -> Rgb {
     PALETTE[m as usize % PALETTE.len()]
 }
 
@@ -289,21 +289,21 @@ fn draw_cell_row(img: &mut Image, index: usize, c: &Cell, top: usize) {
 // A tiny RGB canvas
 // ---------------------------------------------------------------------------------------------
 
-struct Clip {
-    x0: usize,
-    y0: usize,
-    x1: usize,
-    y1: usize,
+pub(crate) struct Clip {
+    pub(crate) x0: usize,
+    pub(crate) y0: usize,
+    pub(crate) x1: usize,
+    pub(crate) y1: usize,
 }
 
-struct Image {
-    width: usize,
-    height: usize,
-    px: Vec<Rgb>,
+pub(crate) struct Image {
+    pub(crate) width: usize,
+    pub(crate) height: usize,
+    pub(crate) px: Vec<Rgb>,
 }
 
 impl Image {
-    fn new(width: usize, height: usize) -> Self {
+    pub(crate) fn new(width: usize, height: usize) -> Self {
         Image {
             width,
             height,
@@ -311,13 +311,13 @@ impl Image {
         }
     }
 
-    fn set(&mut self, x: usize, y: usize, c: Rgb) {
+    pub(crate) fn set(&mut self, x: usize, y: usize, c: Rgb) {
         if x < self.width && y < self.height {
             self.px[y * self.width + x] = c;
         }
     }
 
-    fn fill_rect(&mut self, x: usize, y: usize, w: usize, h: usize, c: Rgb) {
+    pub(crate) fn fill_rect(&mut self, x: usize, y: usize, w: usize, h: usize, c: Rgb) {
         for yy in y..y + h {
             for xx in x..x + w {
                 self.set(xx, yy, c);
@@ -326,7 +326,7 @@ impl Image {
     }
 
     /// Fills pixels whose centres lie inside the triangle (either orientation), within `clip`.
-    fn fill_triangle(&mut self, t: [[f64; 2]; 3], c: Rgb, clip: &Clip) {
+    pub(crate) fn fill_triangle(&mut self, t: [[f64; 2]; 3], c: Rgb, clip: &Clip) {
         let edge = |a: [f64; 2], b: [f64; 2], p: [f64; 2]| {
             (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
         };
@@ -365,7 +365,7 @@ impl Image {
     }
 
     /// One-pixel line from `a` to `b` (DDA), optionally dashed (4 on, 3 off), within `clip`.
-    fn line(&mut self, a: [f64; 2], b: [f64; 2], c: Rgb, clip: &Clip, dashed: bool) {
+    pub(crate) fn line(&mut self, a: [f64; 2], b: [f64; 2], c: Rgb, clip: &Clip, dashed: bool) {
         let steps = (b[0] - a[0]).abs().max((b[1] - a[1]).abs()).ceil().max(1.0);
         if !steps.is_finite() {
             return;
@@ -388,7 +388,7 @@ impl Image {
     }
 
     /// Draws `s` with the built-in font, top-left at `(x, y)`; characters it lacks show as '?'.
-    fn text(&mut self, x: usize, y: usize, s: &str, c: Rgb) {
+    pub(crate) fn text(&mut self, x: usize, y: usize, s: &str, c: Rgb) {
         let advance = 6 * FONT_SCALE;
         for (n, ch) in s.chars().enumerate() {
             let glyph = glyph(ch).unwrap_or_else(|| glyph('?').unwrap_or([0; 7]));
@@ -403,7 +403,7 @@ impl Image {
         }
     }
 
-    fn save_png(&self, path: &Path) -> Result<(), String> {
+    pub(crate) fn save_png(&self, path: &Path) -> Result<(), String> {
         let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
         let mut encoder = png::Encoder::new(
             std::io::BufWriter::new(file),
