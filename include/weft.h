@@ -13,7 +13,9 @@
  *   world lives in the block handed to weft_world_create, until weft_world_destroy.
  * - Vertex buffers are (pointer, count, byte stride), read and written unaligned, so an
  *   interleaved vertex buffer is used in place.
- * - A world is used by one thread at a time; distinct worlds are independent.
+ * - A world is used by one thread at a time; distinct worlds are independent. Calls taking a
+ *   const WeftWorld* only read it and may run on several threads at once (e.g. weft_localize on
+ *   disjoint ranges) while no call taking a non-const WeftWorld* runs.
  *
  * Life of a cloth:
  *   1. weft_blob_parse(bytes, size, &blob, &detail)                 the cells, borrowed
@@ -23,6 +25,15 @@
  *   5. per frame: weft_world_set_pin / weft_world_set_collider, weft_world_step(world, dt, &stats),
  *      weft_world_get_positions(world, vertex_buffer, count, stride)
  *   6. weft_world_destroy(world); free(memory); free(bytes)
+ *
+ * Localization (the fine pattern put back on the coarse cloth, for rendering):
+ *   a. once per render mesh: its (u, v) (your own, or weft_tiled_mesh for the cell's micro
+ *      mesh), weft_bind_memory_size(n, &size), bindings = malloc(size),
+ *      weft_bind(world, uvs, n, stride, bindings, size, &detail)
+ *   b. once: weft_localize_frames_size(world, &fsize); frames = aligned_alloc(16, fsize)
+ *   c. per frame, after the step: weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames,
+ *      fsize, NULL); out = weft_default_localize_output(), set out.positions (and normals)
+ *      and strides; weft_localize(world, frames, bindings, size, first, count, &out, &detail)
  */
 
 #ifndef WEFT_H
@@ -1409,7 +1420,8 @@ WeftResult weft_bind_vertex_count(const void *bindings, size_t bindings_size, ui
 
 /**
  * Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
- * WEFT_LOCALIZE_FRAME_SIZE * weft_world_vertex_count(world)`.
+ * WEFT_LOCALIZE_FRAME_SIZE * weft_world_vertex_count(world)`, a multiple of
+ * `WEFT_LOCALIZE_FRAMES_ALIGN` (as C11 `aligned_alloc` wants).
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
@@ -1509,10 +1521,11 @@ WeftResult weft_tiled_mesh_counts(const struct WeftWorld *world,
  * - `out_indices`: 3 × `triangle_capacity` `uint32_t`, `triangle_capacity` ≥ the triangle
  *   count; receives 3 vertex indices per triangle.
  * - `out_materials`: NULL, or `triangle_capacity` `uint32_t` that receive each triangle's
- *   pattern material (its index among the cell's materials, in the order of the cell file).
+ *   pattern material: its index among the cell's materials, which `weft-cell` numbers in the
+ *   sorted order of the cell file's material keys.
  * - `out_detail`: NULL, or filled on every call.
  *
- * Only the first (vertex count) and (triangle count) elements are written, and only on
+ * Of each output, only the first (vertex or triangle count) elements are written, and only on
  * success.
  *
  * # Safety

@@ -189,6 +189,7 @@ const _: () = assert!(align_of::<VertexFrame>() <= WEFT_LOCALIZE_FRAMES_ALIGN);
 const _: () = assert!(size_of::<FramesHeader>() <= WEFT_LOCALIZE_FRAMES_HEADER_SIZE);
 const _: () = assert!(align_of::<FramesHeader>() <= WEFT_LOCALIZE_FRAMES_ALIGN);
 const _: () = assert!(WEFT_LOCALIZE_FRAMES_HEADER_SIZE % WEFT_LOCALIZE_FRAMES_ALIGN == 0);
+const _: () = assert!(WEFT_LOCALIZE_FRAME_SIZE % WEFT_LOCALIZE_FRAMES_ALIGN == 0);
 
 // ---------------------------------------------------------------------------------------------
 // Types
@@ -2555,7 +2556,8 @@ pub unsafe extern "C" fn weft_bind_vertex_count(
 }
 
 /// Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
-/// WEFT_LOCALIZE_FRAME_SIZE * weft_world_vertex_count(world)`.
+/// WEFT_LOCALIZE_FRAME_SIZE * weft_world_vertex_count(world)`, a multiple of
+/// `WEFT_LOCALIZE_FRAMES_ALIGN` (as C11 `aligned_alloc` wants).
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
@@ -2916,10 +2918,11 @@ fn tiled_counts(w: &WeftWorld, cell: u32) -> FfiResult<(u32, u32)> {
 /// - `out_indices`: 3 × `triangle_capacity` `uint32_t`, `triangle_capacity` ≥ the triangle
 ///   count; receives 3 vertex indices per triangle.
 /// - `out_materials`: NULL, or `triangle_capacity` `uint32_t` that receive each triangle's
-///   pattern material (its index among the cell's materials, in the order of the cell file).
+///   pattern material: its index among the cell's materials, which `weft-cell` numbers in the
+///   sorted order of the cell file's material keys.
 /// - `out_detail`: NULL, or filled on every call.
 ///
-/// Only the first (vertex count) and (triangle count) elements are written, and only on
+/// Of each output, only the first (vertex or triangle count) elements are written, and only on
 /// success.
 ///
 /// # Safety
