@@ -1368,9 +1368,9 @@ fn localization_matches_the_kernel_bit_for_bit() {
     // Through C: an interleaved, packed, unaligned vertex buffer.
     let mut vb = vec![0xeeu8; nv * FSTRIDE];
     let mut out = weft_default_localize_output();
-    out.positions = vb[1..].as_mut_ptr().cast();
+    out.positions = unsafe { vb.as_mut_ptr().add(1) }.cast();
     out.position_stride = FSTRIDE;
-    out.normals = vb[13..].as_mut_ptr().cast();
+    out.normals = unsafe { vb.as_mut_ptr().add(13) }.cast();
     out.normal_stride = FSTRIDE;
     let (r, d) = localize_into(&s, &mut frames, &bindings, bsize, 0, nv as u32, &out);
     assert_eq!(r, WeftResult::Ok, "{d:?} {}", what(&d));
@@ -1386,8 +1386,9 @@ fn localization_matches_the_kernel_bit_for_bit() {
     let mut pieces = vec![0xeeu8; nv * FSTRIDE];
     for (first, end) in [(0, nv / 3), (nv / 3, nv / 2), (nv / 2, nv)] {
         let mut o = out;
-        o.positions = pieces[first * FSTRIDE + 1..].as_mut_ptr().cast();
-        o.normals = pieces[first * FSTRIDE + 13..].as_mut_ptr().cast();
+        let base = unsafe { pieces.as_mut_ptr().add(first * FSTRIDE) };
+        o.positions = unsafe { base.add(1) }.cast();
+        o.normals = unsafe { base.add(13) }.cast();
         let (r, _) = localize_into(
             &s,
             &mut frames,
@@ -1412,9 +1413,10 @@ fn localization_matches_the_kernel_bit_for_bit() {
             sc.spawn(move || {
                 let count = part.len() / FSTRIDE;
                 let mut o = weft_default_localize_output();
-                o.positions = part[1..].as_mut_ptr().cast();
+                let base = part.as_mut_ptr();
+                o.positions = unsafe { base.add(1) }.cast();
                 o.position_stride = FSTRIDE;
-                o.normals = part[13..].as_mut_ptr().cast();
+                o.normals = unsafe { base.add(13) }.cast();
                 o.normal_stride = FSTRIDE;
                 let r = unsafe {
                     weft_localize(
@@ -1444,8 +1446,8 @@ fn localization_matches_the_kernel_bit_for_bit() {
     .unwrap();
     let mut rb = vec![0u8; nv * FSTRIDE];
     let mut o = out;
-    o.positions = rb[1..].as_mut_ptr().cast();
-    o.normals = rb[13..].as_mut_ptr().cast();
+    o.positions = unsafe { rb.as_mut_ptr().add(1) }.cast();
+    o.normals = unsafe { rb.as_mut_ptr().add(13) }.cast();
     o.normal_mode = WEFT_NORMALS_RECOMPUTED;
     o.fine_indices = s.fine_idx.as_ptr();
     o.fine_triangle_count = (s.fine_idx.len() / 3) as u32;
@@ -1466,7 +1468,7 @@ fn localization_matches_the_kernel_bit_for_bit() {
     // Normals before the positions in the record, and a separate normals buffer.
     let mut swapped = vec![0u8; nv * 24];
     let mut o = weft_default_localize_output();
-    o.positions = swapped[12..].as_mut_ptr().cast();
+    o.positions = unsafe { swapped.as_mut_ptr().add(12) }.cast();
     o.position_stride = 24;
     o.normals = swapped.as_mut_ptr().cast();
     o.normal_stride = 24;
@@ -1729,9 +1731,9 @@ fn localization_errors_name_their_cause_and_write_nothing() {
     let mut vb = vec![0xeeu8; n * FSTRIDE];
     let vpristine = vb.clone();
     let mut good = weft_default_localize_output();
-    good.positions = vb[1..].as_mut_ptr().cast();
+    good.positions = unsafe { vb.as_mut_ptr().add(1) }.cast();
     good.position_stride = FSTRIDE;
-    good.normals = vb[13..].as_mut_ptr().cast();
+    good.normals = unsafe { vb.as_mut_ptr().add(13) }.cast();
     good.normal_stride = FSTRIDE;
     let bp: *const std::ffi::c_void = bindings.as_ptr().cast();
     let call = |world: *const WeftWorld,
