@@ -9,9 +9,13 @@
  *   animated target;
  * - effects are toggled at run time (bending off and on, wind on);
  * - the cloth settles and goes to sleep, and an edit wakes it;
+ * - localization: a render mesh three times finer than the cloth, in its own interleaved
+ *   buffer (33-byte vertices: flag, position, normal, (u, v)), is bound once from the (u, v)
+ *   in that buffer and localized into it every frame, in two ranges as two jobs would;
  * - errors: a corrupt, a truncated and a foreign blob, a bad mesh, a too-small capacity, an
- *   uninitialized def, a NULL argument: each is reported with its detail;
- * - the last frame is written as an OBJ (argv[2]).
+ *   uninitialized def, a NULL argument, and localization's own: each is reported with its
+ *   detail;
+ * - the last frame of the localized render mesh is written as an OBJ (argv[2]).
  *
  *   cc -std=c11 -I include c_examples/engine_loop.c target/ship/libweft.a -o engine_loop
  *   ./engine_loop cells.weft last_frame.obj
@@ -31,11 +35,28 @@
 #define UV_AT 13             /* byte offset of the (u, v) inside a vertex */
 #define DT (1.0f / 60.0f)
 
+/* The render mesh: a grid three times finer than the cloth, over the same (u, v). */
+#define FN (3 * (N - 1) + 1)
+#define FVERTS (FN * FN)
+#define FTRIS (2 * (FN - 1) * (FN - 1))
+#define FSTRIDE 33           /* bytes per render vertex: flag, position, normal, (u, v) */
+#define FPOS_AT 1
+#define FNRM_AT 13
+#define FUV_AT 25
+#define FLAG 0xa5
+
 /* The engine's render vertex buffer: packed, interleaved, nothing aligned. */
 static unsigned char vertex_buffer[VERTS * STRIDE];
 static uint32_t indices[3 * TRIS];
 /* The world's home: static memory, aligned as weft requires. */
 static _Alignas(WEFT_WORLD_MEMORY_ALIGN) unsigned char world_memory[WEFT_DEFAULT_WORLD_MEMORY_SIZE];
+/* The render mesh, its bindings (made once) and the per-frame coarse frames: static too, sized
+ * by the header's formulas (checked against the size queries at start-up). */
+static unsigned char fine_buffer[FVERTS * FSTRIDE];
+static uint32_t fine_indices[3 * FTRIS];
+static uint32_t bindings[(WEFT_BIND_HEADER_SIZE + WEFT_BIND_VERTEX_SIZE * FVERTS) / 4];
+static _Alignas(WEFT_LOCALIZE_FRAMES_ALIGN) unsigned char
+    frames[WEFT_LOCALIZE_FRAMES_HEADER_SIZE + WEFT_LOCALIZE_FRAME_SIZE * VERTS];
 
 static int errors_seen = 0;
 
@@ -177,6 +198,111 @@ static void build_mesh(float z)
     }
 }
 
+static WeftVec3 get_fine(uint32_t vertex, int at)
+{
+    WeftVec3 p;
+    memcpy(&p, fine_buffer + (size_t)vertex * FSTRIDE + at, sizeof p);
+    return p;
+}
+
+/* The render mesh: flag bytes and (u, v) set once; weft writes positions and normals. */
+static void build_fine_mesh(void)
+{
+    int i, j, t = 0;
+    for (j = 0; j < FN; ++j) {
+        for (i = 0; i < FN; ++i) {
+            unsigned char *v = fine_buffer + (size_t)(j * FN + i) * FSTRIDE;
+            float uv[2];
+            v[0] = FLAG;
+            uv[0] = SIDE * (float)i / (FN - 1);
+            uv[1] = SIDE * (float)j / (FN - 1);
+            memcpy(v + FUV_AT, uv, sizeof uv);
+        }
+    }
+    for (j = 0; j < FN - 1; ++j) {
+        for (i = 0; i < FN - 1; ++i) {
+            uint32_t ll = (uint32_t)(j * FN + i), lr = ll + 1, ul = ll + FN, ur = ul + 1;
+            fine_indices[t++] = ll;
+            fine_indices[t++] = lr;
+            fine_indices[t++] = ur;
+            fine_indices[t++] = ll;
+            fine_indices[t++] = ur;
+            fine_indices[t++] = ul;
+        }
+    }
+}
+
+/* Where localization writes: fine vertices first .. first + count of the render buffer. */
+static WeftLocalizeOutput fine_output(uint32_t first)
+{
+    WeftLocalizeOutput out = weft_default_localize_output();
+    out.positions = fine_buffer + (size_t)first * FSTRIDE + FPOS_AT;
+    out.position_stride = FSTRIDE;
+    out.normals = fine_buffer + (size_t)first * FSTRIDE + FNRM_AT;
+    out.normal_stride = FSTRIDE;
+    out.normal_mode = WEFT_NORMALS_BLENDED;
+    return out;
+}
+
+/* Every frame after the step: measure the coarse cloth once, then localize the render mesh in
+ * two ranges, as two jobs of an engine's job system would (any split works; the calls only
+ * read the world, the frames and the bindings, so they may run on two threads at once). */
+static void localize_frame(const WeftWorld *world)
+{
+    uint32_t first, half = FVERTS / 2;
+    MUST(weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames, sizeof frames, NULL));
+    for (first = 0; first < FVERTS; first += half) {
+        uint32_t count = first + half <= FVERTS ? half : FVERTS - first;
+        WeftLocalizeOutput out = fine_output(first);
+        MUST(weft_localize(world, frames, bindings, sizeof bindings, first, count, &out, NULL));
+    }
+}
+
+/* Localization's errors, each reported with its detail; none writes an output. */
+static void localize_errors(const WeftWorld *world)
+{
+    static uint32_t small[(WEFT_BIND_HEADER_SIZE + WEFT_BIND_VERTEX_SIZE * 6) / 4];
+    static unsigned char before[sizeof fine_buffer];
+    WeftErrorDetail d;
+    WeftLocalizeOutput out = fine_output(0);
+    float outside[2 * 6] = {0.1f, 0.1f, 0.2f, 0.2f, 0.3f, 0.3f, 0.4f, 0.4f, -0.1f, 0.5f, 0.5f, 0.5f};
+
+    memcpy(before, fine_buffer, sizeof before);
+    /* Before the first prepare there are no frames to localize from. */
+    expect("unprepared frames",
+           weft_localize(world, frames, bindings, sizeof bindings, 0, FVERTS, &out, &d),
+           WEFT_RESULT_FRAMES_NOT_PREPARED, &d);
+    MUST(weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames, sizeof frames, NULL));
+    /* A render vertex outside the cloth's (u, v): named by its index. */
+    expect("outside the cloth",
+           weft_bind(world, outside, 6, 2 * sizeof(float), small, sizeof small, &d),
+           WEFT_RESULT_BIND_OUT_OF_DOMAIN, &d);
+    if (d.vertex != 4)
+        ++errors_seen;
+    /* A bindings block too small for the mesh. */
+    expect("small bindings",
+           weft_bind(world, fine_buffer + FUV_AT, FVERTS, FSTRIDE, small, sizeof small, &d),
+           WEFT_RESULT_BIND_MEMORY_TOO_SMALL, &d);
+    /* Memory that bindings were never written to. */
+    expect("not bindings", weft_localize(world, frames, small, sizeof small, 0, 6, &out, &d),
+           WEFT_RESULT_BINDINGS_INVALID, &d);
+    /* A range past the end of the mesh. */
+    expect("range", weft_localize(world, frames, bindings, sizeof bindings, 1, FVERTS, &out, &d),
+           WEFT_RESULT_LOCALIZE_RANGE, &d);
+    /* Normals on top of the positions. */
+    out.normals = fine_buffer + FPOS_AT + 4;
+    expect("overlapping normals",
+           weft_localize(world, frames, bindings, sizeof bindings, 0, FVERTS, &out, &d),
+           WEFT_RESULT_NORMAL_LAYOUT, &d);
+    /* An unknown strain measure. */
+    expect("strain measure", weft_localize_prepare(world, 7, frames, sizeof frames, &d),
+           WEFT_RESULT_INVALID_ARGUMENT, &d);
+    if (memcmp(before, fine_buffer, sizeof before) != 0) {
+        printf("  UNEXPECTED: a failed call wrote the render buffer\n");
+        ++errors_seen;
+    }
+}
+
 static WeftWorldDef cloth_def(void)
 {
     WeftWorldDef def = weft_default_world_def();
@@ -263,7 +389,7 @@ static void error_handling(const unsigned char *blob_bytes, size_t blob_size, co
     }
 }
 
-static void write_obj(const char *path, WeftWorld *world)
+static void write_obj(const char *path)
 {
     FILE *f = fopen(path, "w");
     int i;
@@ -271,24 +397,29 @@ static void write_obj(const char *path, WeftWorld *world)
         fprintf(stderr, "cannot write %s\n", path);
         exit(1);
     }
-    /* The render buffer holds the last frame: write it as the engine would draw it. */
-    MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
-    fprintf(f, "# weft engine_loop: last frame\n");
-    for (i = 0; i < VERTS; ++i) {
-        WeftVec3 p = get_pos((uint32_t)i);
+    /* The render buffer holds the last frame's localized mesh: write it as it would be drawn. */
+    fprintf(f, "# weft engine_loop: the localized render mesh, last frame\n");
+    for (i = 0; i < FVERTS; ++i) {
+        WeftVec3 p = get_fine((uint32_t)i, FPOS_AT);
         fprintf(f, "v %.6f %.6f %.6f\n", (double)p.x, (double)p.y, (double)p.z);
     }
-    for (i = 0; i < TRIS; ++i)
-        fprintf(f, "f %u %u %u\n", (unsigned)indices[3 * i] + 1, (unsigned)indices[3 * i + 1] + 1,
-                (unsigned)indices[3 * i + 2] + 1);
+    for (i = 0; i < FVERTS; ++i) {
+        WeftVec3 n = get_fine((uint32_t)i, FNRM_AT);
+        fprintf(f, "vn %.6f %.6f %.6f\n", (double)n.x, (double)n.y, (double)n.z);
+    }
+    for (i = 0; i < FTRIS; ++i) {
+        unsigned a = (unsigned)fine_indices[3 * i] + 1, b = (unsigned)fine_indices[3 * i + 1] + 1,
+                 c = (unsigned)fine_indices[3 * i + 2] + 1;
+        fprintf(f, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c);
+    }
     fclose(f);
-    printf("wrote %s (%d vertices, %d triangles)\n", path, VERTS, TRIS);
+    printf("wrote %s (%d vertices, %d triangles)\n", path, FVERTS, FTRIS);
 }
 
 int main(int argc, char **argv)
 {
     unsigned char *bytes;
-    size_t blob_size = 0, needed = 0;
+    size_t blob_size = 0, needed = 0, fine_needed = 0;
     WeftBlob blob;
     WeftErrorDetail d;
     WeftWorldDef def;
@@ -322,6 +453,9 @@ int main(int argc, char **argv)
     printf("world memory: %zu bytes needed, %zu reserved\n", needed, sizeof world_memory);
     if (needed > sizeof world_memory)
         return 1;
+    MUST(weft_bind_memory_size(FVERTS, &fine_needed));
+    if (fine_needed != sizeof bindings)
+        return 1;
 
     error_handling(bytes, blob_size, &blob);
 
@@ -334,6 +468,20 @@ int main(int argc, char **argv)
         report("create", d.result, &d);
         return 1;
     }
+
+    /* The render mesh: bound once, from the (u, v) inside its own interleaved buffer. */
+    build_fine_mesh();
+    MUST(weft_localize_frames_size(world, &fine_needed));
+    if (fine_needed != sizeof frames)
+        return 1;
+    if (weft_bind(world, fine_buffer + FUV_AT, FVERTS, FSTRIDE, bindings, sizeof bindings, &d) !=
+        WEFT_RESULT_OK) {
+        report("bind", d.result, &d);
+        return 1;
+    }
+    printf("render mesh: %d vertices, %d triangles, %zu bytes of bindings, %zu bytes of frames\n",
+           FVERTS, FTRIS, sizeof bindings, sizeof frames);
+    localize_errors(world);
 
     /* Colliders: the floor, a sphere and a capsule that move under the cloth. */
     cdef = weft_default_collider_def();
@@ -413,8 +561,10 @@ int main(int argc, char **argv)
                 return 1;
             }
         }
-        /* The engine's render buffer gets the new positions, in place. */
+        /* The engine's buffers get the new positions, in place: the cloth's own, and the
+         * localized render mesh. */
         MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+        localize_frame(world);
         if (asleep_at < 0 && weft_world_is_asleep(world)) {
             asleep_at = frame;
             printf("frame %d: asleep\n", frame);
@@ -468,7 +618,47 @@ int main(int argc, char **argv)
             ++errors_seen;
     }
 
-    write_obj(argv[2], world);
+    {
+        /* The render mesh covers the cloth: every third render vertex sits on a cloth vertex
+         * (same (u, v)) and lands there, up to the pattern's micro displacement. Normals are
+         * unit length, and weft wrote nothing but positions and normals. */
+        float worst = 0.0f, worst_normal = 0.0f;
+        int i, j, k;
+        localize_frame(world);
+        for (j = 0; j < N; ++j) {
+            for (i = 0; i < N; ++i) {
+                WeftVec3 c = get_pos((uint32_t)(j * N + i));
+                WeftVec3 f = get_fine((uint32_t)(3 * j * FN + 3 * i), FPOS_AT);
+                float gap[3];
+                gap[0] = absf(f.x - c.x);
+                gap[1] = absf(f.y - c.y);
+                gap[2] = absf(f.z - c.z);
+                for (k = 0; k < 3; ++k)
+                    if (!(gap[k] <= worst))
+                        worst = gap[k];
+            }
+        }
+        for (i = 0; i < FVERTS; ++i) {
+            WeftVec3 n = get_fine((uint32_t)i, FNRM_AT);
+            float e = absf(n.x * n.x + n.y * n.y + n.z * n.z - 1.0f);
+            float uv[2];
+            if (!(e <= worst_normal))
+                worst_normal = e;
+            memcpy(uv, fine_buffer + (size_t)i * FSTRIDE + FUV_AT, sizeof uv);
+            if (fine_buffer[(size_t)i * FSTRIDE] != FLAG ||
+                uv[0] != SIDE * (float)(i % FN) / (FN - 1) ||
+                uv[1] != SIDE * (float)(i / FN) / (FN - 1)) {
+                printf("weft wrote outside the position and normal of render vertex %d\n", i);
+                ++errors_seen;
+                break;
+            }
+        }
+        printf("render vertices on cloth vertices: %.4f mm away at most; normals unit to %.1e\n",
+               (double)(1000.0f * worst), (double)worst_normal);
+        if (!(worst < 1e-3f) || !(worst_normal < 1e-5f))
+            ++errors_seen;
+    }
+    write_obj(argv[2]);
     MUST(weft_world_destroy(world));
     expect("destroyed handle", weft_world_step(world, DT, NULL), WEFT_RESULT_INVALID_HANDLE, NULL);
     free(bytes);

@@ -2,7 +2,9 @@
  * hello.c: the smallest complete use of weft from C.
  *
  * Loads a cell blob, makes a 16 x 16-vertex cloth of cell 0, pins two corners, steps it for
- * 120 frames at 60 Hz and prints a few numbers. Every call's result is checked.
+ * 120 frames at 60 Hz, then localizes it: the cell's own micro mesh, tiled over the cloth, is
+ * bound to it and put back on it, and a few numbers of both meshes are printed. Every call's
+ * result is checked.
  *
  *   cc -std=c11 -I include c_examples/hello.c target/ship/libweft.a -o hello
  *   ./hello cells.weft
@@ -16,6 +18,7 @@
 #define N 16        /* vertices along each side */
 #define SIDE 0.5f   /* metres */
 #define FRAMES 120
+#define MATERIALS 8 /* pattern materials counted in the strain summary */
 
 /* Prints a failed call with its detail and returns nonzero. */
 static int failed(WeftResult r, const char *call, const WeftErrorDetail *d)
@@ -65,6 +68,18 @@ int main(int argc, char **argv)
     static WeftVec2 uvs[N * N];
     static uint32_t indices[6 * (N - 1) * (N - 1)];
     static WeftVec3 out[N * N];
+    WeftVec2 *fine_uvs = NULL;      /* the fine render mesh: (u, v) ... */
+    uint32_t *fine_indices = NULL;  /* ... triangles, their pattern material ... */
+    uint32_t *fine_materials = NULL;
+    WeftVec3 *fine_positions = NULL; /* ... and where localization puts it */
+    void *bindings = NULL, *frames = NULL;
+    size_t bindings_size = 0, frames_size = 0;
+    uint32_t fine_count = 0, fine_triangles = 0;
+    WeftLocalizeOutput output;
+    float box[2][2][3]; /* [coarse, fine][min, max][x, y, z] */
+    float dx, dy, dz, gap_mm, worst_mm = 0.0f;
+    double strain[MATERIALS + 1] = {0.0}, edges[MATERIALS + 1] = {0.0};
+    double fine_strain = 0.0, fine_edges = 0.0;
     WeftErrorDetail detail;
     WeftBlob blob;
     WeftCellInfo cell;
@@ -72,10 +87,10 @@ int main(int argc, char **argv)
     WeftWorld *world = NULL;
     WeftStepStats stats;
     WeftResult r;
-    void *bytes, *memory;
+    void *bytes, *memory = NULL;
     size_t blob_size = 0, memory_size = 0;
     uint32_t corner_a = 0, corner_b = N - 1, centre = (N / 2) * N + N / 2;
-    int i, j, t = 0, frame, status = 1;
+    int i, j, k, t = 0, frame, status = 1;
     float lowest = 1.0f;
 
     if (argc < 2) {
@@ -167,11 +182,7 @@ int main(int argc, char **argv)
                 failed(r, "weft_world_step", &d);
             goto done;
         }
-        /*
-         * >>> LOCALIZATION GOES HERE <<<
-         * Once localization exists, this is where the fine pattern is put back on the coarse
-         * cloth for rendering (weft_world_localize into the render mesh). Nothing to call yet.
-         */
+        /* An engine localizes here, every frame it draws (step 6 below, after the loop). */
     }
 
     /* 5. Read the result into our own array (tightly packed: stride = sizeof(WeftVec3)). */
@@ -197,13 +208,143 @@ int main(int argc, char **argv)
         fprintf(stderr, "the cloth did not hang from its pins\n");
         goto done;
     }
+
+    /*
+     * 6. Localize. The render mesh here is the cell's own micro mesh tiled over the cloth's
+     * (u, v) (any mesh with (u, v) in the cloth's layout works). Binding is once per mesh;
+     * prepare + localize is what an engine does every frame it draws.
+     */
+    r = weft_tiled_mesh_counts(world, 0, &fine_count, &fine_triangles, &detail);
+    if (failed(r, "weft_tiled_mesh_counts", &detail))
+        goto done;
+    fine_uvs = malloc(fine_count * sizeof *fine_uvs);
+    fine_indices = malloc(3 * (size_t)fine_triangles * sizeof *fine_indices);
+    fine_materials = malloc(fine_triangles * sizeof *fine_materials);
+    fine_positions = malloc(fine_count * sizeof *fine_positions);
+    if (fine_uvs == NULL || fine_indices == NULL || fine_materials == NULL ||
+        fine_positions == NULL)
+        goto done;
+    r = weft_tiled_mesh(world, 0, fine_uvs, fine_count, fine_indices, fine_triangles,
+                        fine_materials, &detail);
+    if (failed(r, "weft_tiled_mesh", &detail))
+        goto done;
+    r = weft_bind_memory_size(fine_count, &bindings_size);
+    if (failed(r, "weft_bind_memory_size", NULL) || (bindings = malloc(bindings_size)) == NULL)
+        goto done;
+    r = weft_bind(world, fine_uvs, fine_count, sizeof(WeftVec2), bindings, bindings_size,
+                  &detail);
+    if (failed(r, "weft_bind", &detail))
+        goto done;
+    printf("fine mesh: %u vertices, %u triangles (cell 0 tiled at %.3g mm), %zu bytes of "
+           "bindings\n",
+           (unsigned)fine_count, (unsigned)fine_triangles,
+           1000.0 * cell.width / (cell.cols * cell.refine), bindings_size);
+
+    r = weft_localize_frames_size(world, &frames_size);
+    if (failed(r, "weft_localize_frames_size", NULL) ||
+        (frames = aligned_alloc(WEFT_LOCALIZE_FRAMES_ALIGN, frames_size)) == NULL)
+        goto done;
+    r = weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames, frames_size, &detail);
+    if (failed(r, "weft_localize_prepare", &detail))
+        goto done;
+    output = weft_default_localize_output();
+    output.positions = fine_positions;
+    output.position_stride = sizeof(WeftVec3);
+    r = weft_localize(world, frames, bindings, bindings_size, 0, fine_count, &output, &detail);
+    if (failed(r, "weft_localize", &detail))
+        goto done;
+
+    /* The fine mesh covers the coarse cloth: same extent, up to the micro displacement. */
+    for (k = 0; k < 3; ++k) {
+        box[0][0][k] = box[1][0][k] = 1e30f;
+        box[0][1][k] = box[1][1][k] = -1e30f;
+    }
+    for (i = 0; i < N * N + (int)fine_count; ++i) {
+        const WeftVec3 *p = i < N * N ? &out[i] : &fine_positions[i - N * N];
+        float c[3];
+        int m = i < N * N ? 0 : 1;
+        c[0] = p->x;
+        c[1] = p->y;
+        c[2] = p->z;
+        for (k = 0; k < 3; ++k) {
+            if (!(c[k] == c[k])) {
+                fprintf(stderr, "a localized vertex is NaN\n");
+                goto done;
+            }
+            if (c[k] < box[m][0][k])
+                box[m][0][k] = c[k];
+            if (c[k] > box[m][1][k])
+                box[m][1][k] = c[k];
+        }
+    }
+    for (i = 0; i < 2; ++i)
+        printf("%s extent: x [%.4f, %.4f] y [%.4f, %.4f] z [%.4f, %.4f]\n",
+               i == 0 ? "coarse" : "fine  ", (double)box[i][0][0], (double)box[i][1][0],
+               (double)box[i][0][1], (double)box[i][1][1], (double)box[i][0][2],
+               (double)box[i][1][2]);
+    for (i = 0; i < 2; ++i)
+        for (k = 0; k < 3; ++k) {
+            gap_mm = 1000.0f * (box[1][i][k] - box[0][i][k]);
+            if (gap_mm < 0.0f)
+                gap_mm = -gap_mm;
+            if (gap_mm > worst_mm)
+                worst_mm = gap_mm;
+        }
+    printf("extents differ by %.3f mm at most\n", (double)worst_mm);
+    if (!(worst_mm < 1.0f)) {
+        fprintf(stderr, "the fine mesh does not cover the coarse cloth\n");
+        goto done;
+    }
+
+    /*
+     * What localization is for: the fine pattern's own deformation. The cloth hangs along v,
+     * across the stripes; the mean Green strain (|dx|^2 / |dv|^2 - 1) / 2 of the edges along v
+     * is measured on the coarse mesh and per pattern material on the fine one. The soft layers
+     * take most of the stretch, and the layers average to the coarse strain.
+     */
+    for (i = 0; i < 2 * (N - 1) * (N - 1) + (int)fine_triangles; ++i) {
+        int coarse = i < 2 * (N - 1) * (N - 1);
+        const uint32_t *tri = coarse ? &indices[3 * i] : &fine_indices[3 * (i - t / 3)];
+        const WeftVec2 *uv = coarse ? uvs : fine_uvs;
+        const WeftVec3 *x = coarse ? out : fine_positions;
+        int slot = coarse ? MATERIALS : (int)fine_materials[i - t / 3];
+        if (!coarse && slot >= MATERIALS)
+            continue;
+        for (k = 0; k < 3; ++k) {
+            uint32_t a = tri[k], b = tri[(k + 1) % 3];
+            float du = uv[b].x - uv[a].x, dv = uv[b].y - uv[a].y;
+            if (du > 1e-7f || du < -1e-7f || dv == 0.0f)
+                continue; /* not an edge along v */
+            dx = x[b].x - x[a].x;
+            dy = x[b].y - x[a].y;
+            dz = x[b].z - x[a].z;
+            strain[slot] += 0.5 * ((double)(dx * dx + dy * dy + dz * dz) / (double)(dv * dv) - 1.0);
+            edges[slot] += 1.0;
+        }
+    }
+    for (k = 0; k < MATERIALS; ++k) {
+        fine_strain += strain[k];
+        fine_edges += edges[k];
+    }
+    printf("strain along v (Green, mean over edges along v): coarse %.4f %%, fine %.4f %% =",
+           100.0 * strain[MATERIALS] / edges[MATERIALS], 100.0 * fine_strain / fine_edges);
+    for (k = 0; k < MATERIALS; ++k)
+        if (edges[k] > 0.0)
+            printf(" material %d: %.4f %%", k, 100.0 * strain[k] / edges[k]);
+    printf("\n");
     printf("hello: ok\n");
     status = 0;
 
 done:
-    /* 6. Destroy the world before freeing its memory and the blob it borrows. */
+    /* 7. Destroy the world before freeing its memory and the blob it borrows. */
     if (world != NULL)
         weft_world_destroy(world);
+    free(frames);
+    free(bindings);
+    free(fine_positions);
+    free(fine_materials);
+    free(fine_indices);
+    free(fine_uvs);
     free(memory);
     free(bytes);
     return status;

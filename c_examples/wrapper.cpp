@@ -1,19 +1,23 @@
 // wrapper.cpp: a small C++17 RAII wrapper over weft's C API, used the way an engine's cloth
-// component would use it.
+// component would use it: a world, its render mesh's bindings and per-frame frames as RAII
+// objects, localization split over two threads every frame.
 //
 //   c++ -std=c++17 -I include c_examples/wrapper.cpp target/ship/libweft.a -o wrapper
 //   ./wrapper cells.weft
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <iterator>
 #include <memory>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -93,6 +97,44 @@ private:
     WeftBlob blob_{};
 };
 
+// Aligned heap bytes for weft's caller-owned blocks.
+struct AlignedDelete {
+    std::size_t align;
+    void operator()(std::byte* p) const noexcept { ::operator delete(p, std::align_val_t{align}); }
+};
+using AlignedBytes = std::unique_ptr<std::byte, AlignedDelete>;
+inline AlignedBytes aligned_bytes(std::size_t size, std::size_t align) {
+    return AlignedBytes(static_cast<std::byte*>(::operator new(size, std::align_val_t{align})),
+                        AlignedDelete{align});
+}
+
+// A render mesh's bindings to a cloth: plain bytes, movable, storable with the mesh asset.
+class Bindings {
+public:
+    Bindings() = default;
+    const void* data() const noexcept { return words_.data(); }
+    std::size_t size() const noexcept { return size_; }
+    std::uint32_t count() const noexcept { return count_; }
+
+private:
+    friend class World;
+    std::vector<std::uint32_t> words_;  // WEFT_BIND_MEMORY_ALIGN-aligned
+    std::size_t size_ = 0;
+    std::uint32_t count_ = 0;
+};
+
+// A world's per-frame frames (filled by World::prepare). Movable; the bytes stay put.
+class Frames {
+public:
+    Frames() = default;
+    const void* data() const noexcept { return bytes_.get(); }
+
+private:
+    friend class World;
+    AlignedBytes bytes_{nullptr, AlignedDelete{WEFT_LOCALIZE_FRAMES_ALIGN}};
+    std::size_t size_ = 0;
+};
+
 // Owns a world and the aligned memory block it lives in. Move-only; destroyed before its memory
 // is released. The blob must outlive it.
 class World {
@@ -100,8 +142,7 @@ public:
     World(const WeftWorldDef& def, const Blob& blob) {
         std::size_t size = 0;
         detail::check("weft_world_memory_size", weft_world_memory_size(&def.capacity, &size));
-        memory_.reset(static_cast<std::byte*>(
-            ::operator new(size, std::align_val_t{weft_world_memory_align()})));
+        memory_ = aligned_bytes(size, weft_world_memory_align());
         WeftErrorDetail d;
         WeftResult r = weft_world_create(&def, blob.get(), memory_.get(), size, &world_, &d);
         if (r != WEFT_RESULT_OK) throw Error("weft_world_create", r, d);
@@ -168,6 +209,56 @@ public:
     std::uint32_t vertex_count() const noexcept { return weft_world_vertex_count(world_); }
     bool asleep() const noexcept { return weft_world_is_asleep(world_); }
 
+    // Binds a render mesh (any array of structs holding a (u, v) `member`) to this cloth.
+    template <class Vertex>
+    Bindings bind(const std::vector<Vertex>& mesh, WeftVec2 Vertex::*member) const {
+        Bindings b;
+        b.count_ = static_cast<std::uint32_t>(mesh.size());
+        detail::check("weft_bind_memory_size", weft_bind_memory_size(b.count_, &b.size_));
+        b.words_.resize((b.size_ + 3) / 4);
+        WeftErrorDetail d;
+        WeftResult r = weft_bind(world_, &(mesh.data()->*member), b.count_, sizeof(Vertex),
+                                 b.words_.data(), b.size_, &d);
+        if (r != WEFT_RESULT_OK) throw Error("weft_bind", r, d);
+        return b;
+    }
+    // Measures the cloth as it is now into `frames` (allocated on first use).
+    void prepare(Frames& frames, std::uint32_t measure = WEFT_STRAIN_COROTATED) const {
+        std::size_t size = 0;
+        detail::check("weft_localize_frames_size", weft_localize_frames_size(world_, &size));
+        if (frames.size_ != size) {
+            frames.bytes_ = aligned_bytes(size, WEFT_LOCALIZE_FRAMES_ALIGN);
+            frames.size_ = size;
+        }
+        WeftErrorDetail d;
+        WeftResult r = weft_localize_prepare(world_, measure, frames.bytes_.get(), size, &d);
+        if (r != WEFT_RESULT_OK) throw Error("weft_localize_prepare", r, d);
+    }
+    // Localizes render vertices [first, first + count) into `mesh`: positions and normals go
+    // to the given members. Const: ranges may run on several threads at once.
+    template <class Vertex>
+    void localize(const Frames& frames, const Bindings& bindings, std::vector<Vertex>& mesh,
+                  WeftVec3 Vertex::*position, WeftVec3 Vertex::*normal, std::uint32_t first,
+                  std::uint32_t count, std::uint32_t normal_mode = WEFT_NORMALS_BLENDED,
+                  const std::vector<std::uint32_t>* fine_indices = nullptr) const {
+        if (static_cast<std::size_t>(first) + count > mesh.size())
+            throw std::out_of_range("weft::World::localize: range beyond the mesh");
+        WeftLocalizeOutput out = weft_default_localize_output();
+        out.positions = &(mesh.data()[first].*position);
+        out.position_stride = sizeof(Vertex);
+        out.normals = &(mesh.data()[first].*normal);
+        out.normal_stride = sizeof(Vertex);
+        out.normal_mode = normal_mode;
+        if (fine_indices != nullptr) {
+            out.fine_indices = fine_indices->data();
+            out.fine_triangle_count = static_cast<std::uint32_t>(fine_indices->size() / 3);
+        }
+        WeftErrorDetail d;
+        WeftResult r = weft_localize(world_, frames.data(), bindings.data(), bindings.size(), first,
+                                     count, &out, &d);
+        if (r != WEFT_RESULT_OK) throw Error("weft_localize", r, d);
+    }
+
 private:
     // A failed call on the world: its detail is kept by the world.
     void call(const char* name, WeftResult r) {
@@ -176,12 +267,7 @@ private:
         weft_world_last_error_detail(world_, &d);
         throw Error(name, r, d);
     }
-    struct AlignedDelete {
-        void operator()(std::byte* p) const noexcept {
-            ::operator delete(p, std::align_val_t{WEFT_WORLD_MEMORY_ALIGN});
-        }
-    };
-    std::unique_ptr<std::byte, AlignedDelete> memory_;
+    AlignedBytes memory_{nullptr, AlignedDelete{WEFT_WORLD_MEMORY_ALIGN}};
     WeftWorld* world_ = nullptr;
 };
 
@@ -198,6 +284,9 @@ struct RenderVertex {
 
 class ClothComponent {
 public:
+    // Render vertices per simulated edge: the render mesh is this many times finer.
+    static constexpr int kFiner = 4;
+
     // A `cols` x `rows` flag of `width` metres held along its edge at `pole`, starting out
     // horizontal (along +y) and free to fall.
     ClothComponent(const weft::Blob& cells, std::uint32_t cell, int cols, int rows, float width,
@@ -239,6 +328,23 @@ public:
             std::uint32_t v = static_cast<std::uint32_t>((rows - 1) * cols + i);
             world_->pin(v, vertices_[v].position);
         }
+        // The render mesh: kFiner times finer over the same (u, v), bound once.
+        int fc = kFiner * (cols - 1) + 1, fr = kFiner * (rows - 1) + 1;
+        float fh = h / static_cast<float>(kFiner);
+        for (int j = 0; j < fr; ++j)
+            for (int i = 0; i < fc; ++i) {
+                RenderVertex v{};
+                v.uv = {fh * static_cast<float>(i), fh * static_cast<float>(j)};
+                render_.push_back(v);
+            }
+        for (int j = 0; j + 1 < fr; ++j)
+            for (int i = 0; i + 1 < fc; ++i) {
+                std::uint32_t ll = static_cast<std::uint32_t>(j * fc + i), lr = ll + 1,
+                              ul = ll + static_cast<std::uint32_t>(fc), ur = ul + 1;
+                render_indices_.insert(render_indices_.end(), {ll, lr, ur, ll, ur, ul});
+            }
+        bindings_ = world_->bind(render_, &RenderVertex::uv);
+        localize();
     }
 
     // Called once per frame by the engine.
@@ -252,7 +358,47 @@ public:
             if (s2 > top_speed2_) top_speed2_ = s2;
         }
         if (!(top_speed2_ < 400.0f)) throw std::runtime_error("the cloth exploded");
+        localize();
     }
+    // The render mesh follows the cloth: measured once, localized in two halves on two threads
+    // (the calls only read the world, the frames and the bindings).
+    void localize() {
+        world_->prepare(frames_);
+        std::uint32_t n = static_cast<std::uint32_t>(render_.size()), half = n / 2;
+        std::exception_ptr failed;
+        std::thread job([&] {
+            try {
+                world_->localize(frames_, bindings_, render_, &RenderVertex::position,
+                                 &RenderVertex::normal, 0, half);
+            } catch (...) {
+                failed = std::current_exception();
+            }
+        });
+        try {
+            world_->localize(frames_, bindings_, render_, &RenderVertex::position,
+                             &RenderVertex::normal, half, n - half);
+        } catch (...) {
+            job.join();
+            throw;
+        }
+        job.join();
+        if (failed) std::rethrow_exception(failed);
+    }
+    // The render mesh again, whole, with normals recomputed from its own triangles.
+    void localize_exact_normals() {
+        world_->prepare(frames_);
+        world_->localize(frames_, bindings_, render_, &RenderVertex::position,
+                         &RenderVertex::normal, 0, static_cast<std::uint32_t>(render_.size()),
+                         WEFT_NORMALS_RECOMPUTED, &render_indices_);
+    }
+    // Tries this cloth's render mesh with bindings made for another cloth.
+    void localize_with(const weft::Bindings& foreign) {
+        world_->prepare(frames_);
+        world_->localize(frames_, foreign, render_, &RenderVertex::position,
+                         &RenderVertex::normal, 0, static_cast<std::uint32_t>(render_.size()));
+    }
+    const weft::Bindings& bindings() const { return bindings_; }
+    const std::vector<RenderVertex>& render_vertices() const { return render_; }
     float top_speed2() const { return top_speed2_; }
     weft::World& world() { return *world_; }
     const std::vector<RenderVertex>& vertices() const { return vertices_; }
@@ -264,7 +410,11 @@ private:
     std::vector<RenderVertex> vertices_;
     std::vector<std::uint32_t> indices_;
     std::vector<WeftVec3> velocities_ = std::vector<WeftVec3>(vertices_.size());
+    std::vector<RenderVertex> render_;
+    std::vector<std::uint32_t> render_indices_;
     std::unique_ptr<weft::World> world_;
+    weft::Bindings bindings_;
+    weft::Frames frames_;
     WeftStepStats last_{};
     float top_speed2_ = 0.0f;
 };
@@ -306,6 +456,33 @@ int main(int argc, char** argv) {
             return 1;
         }
 
+        // The render mesh covers the flag: its corners sit on the simulated corners (same
+        // (u, v)), up to the pattern's micro displacement.
+        const std::vector<RenderVertex>& render = flag.render_vertices();
+        auto gap_mm = [](const WeftVec3& a, const WeftVec3& b) {
+            return 1000.0 * std::sqrt(static_cast<double>((a.x - b.x) * (a.x - b.x) +
+                                                          (a.y - b.y) * (a.y - b.y) +
+                                                          (a.z - b.z) * (a.z - b.z)));
+        };
+        double corner_gap = std::max(gap_mm(render.front().position, corner.position),
+                                     gap_mm(render.back().position, held.position));
+        std::vector<RenderVertex> blended = render;
+        flag.localize_exact_normals();
+        double min_dot = 1.0;
+        for (std::size_t i = 0; i < render.size(); ++i) {
+            const WeftVec3 &a = blended[i].normal, &b = render[i].normal;
+            min_dot = std::min(min_dot, static_cast<double>(a.x * b.x + a.y * b.y + a.z * b.z));
+        }
+        std::printf("render mesh: %zu vertices (%d x finer), localized on 2 threads every frame; "
+                    "corners %.4f mm from the simulated ones; recomputed normals within %.1f "
+                    "degrees of the blended ones\n",
+                    render.size(), ClothComponent::kFiner, corner_gap,
+                    std::acos(std::min(1.0, min_dot)) * 180.0 / 3.14159265358979);
+        if (!(corner_gap < 1.0) || !(min_dot > 0.5)) {
+            std::printf("the render mesh does not follow the flag\n");
+            return 1;
+        }
+
         // Errors arrive as exceptions carrying the detail.
         try {
             flag.world().pin(100000, WeftVec3{0.0f, 0.0f, 0.0f});
@@ -323,6 +500,16 @@ int main(int argc, char** argv) {
         } catch (const weft::Error& e) {
             std::printf("caught: %s\n", e.what());
             if (e.result() != WEFT_RESULT_MATERIAL_OUT_OF_RANGE) return 1;
+        }
+        try {
+            // Bindings belong to one cloth: another flag refuses them.
+            ClothComponent small(cells, 0, 6, 5, 0.3f, WeftVec3{1.0f, 0.0f, 2.0f});
+            small.localize_with(flag.bindings());
+            std::printf("foreign bindings were accepted\n");
+            return 1;
+        } catch (const weft::Error& e) {
+            std::printf("caught: %s\n", e.what());
+            if (e.result() != WEFT_RESULT_BINDINGS_MISMATCH) return 1;
         }
         // Worlds move without copying: the handle and its block travel together.
         weft::World moved = std::move(flag.world());

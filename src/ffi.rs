@@ -33,7 +33,9 @@ use glam::Vec3A;
 
 use crate::blob::{self, Blob, BlobError};
 use crate::collide::{Collider, Shape};
+use crate::localize::{self, BindError, Binding, NormalTarget, StrainMeasure, VertexFrame};
 use crate::mesh::MeshError;
+use crate::strided::{Strided, StridedMut};
 use crate::world::{
     effects, Capacity, ClothDef, EditError, InitError, Materials, Settings, StepError, StepStats,
     World,
@@ -80,10 +82,12 @@ pub const WEFT_EFFECT_WARPING: u32 = 1 << 6;
 /// Effect bit: a cloth at rest goes to sleep (`sleep_velocity`, `sleep_frames`) and costs
 /// nothing until an edit or `weft_world_wake` wakes it.
 pub const WEFT_EFFECT_SLEEP: u32 = 1 << 7;
-/// Effect bit reserved for localization (the fine pattern put back on the coarse cloth); the
-/// step ignores it.
+/// Effect bit for localization (the fine pattern put back on the coarse cloth). Localization is
+/// the caller's to run (`weft_localize`); the bit is carried in the settings so one effect set
+/// describes a scene. Neither the step nor `weft_localize` reads it.
 pub const WEFT_EFFECT_LOCALIZE: u32 = 1 << 8;
-/// Effect bit reserved for recomputed render normals; the step ignores it.
+/// Effect bit for recomputed render normals (`WEFT_NORMALS_RECOMPUTED`), carried like
+/// `WEFT_EFFECT_LOCALIZE`: neither the step nor `weft_localize` reads it.
 pub const WEFT_EFFECT_NORMALS: u32 = 1 << 9;
 /// Every effect bit; any other bit set is `WEFT_RESULT_INVALID_SETTING`.
 pub const WEFT_EFFECT_ALL: u32 = (1 << 10) - 1;
@@ -120,6 +124,42 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// other capacity.
 pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 4_186_656;
 
+/// `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
+/// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
+/// (Biot) and R carries the micro displacement into 3D. The strain measure of the coarse step's
+/// corotated elements, so the fine pattern matches the cell problem's linear solution; use this
+/// one unless you want the paper verbatim.
+pub const WEFT_STRAIN_COROTATED: u32 = 0;
+/// `strain_measure` of `weft_localize_prepare`: the paper verbatim, Green strain (FᵀF - I)/2
+/// (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order;
+/// overshoots the micro fluctuation slightly under stretch.
+pub const WEFT_STRAIN_GREEN: u32 = 1;
+
+/// `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
+/// vertex normals (smooth, cheap: about 1.3 × the cost of positions alone).
+pub const WEFT_NORMALS_BLENDED: u32 = 0;
+/// `WeftLocalizeOutput.normal_mode`: normals recomputed from the localized fine triangles
+/// (`WeftLocalizeOutput.fine_indices`), so they show the micro pattern's relief; about 6 × the
+/// cost of positions alone.
+pub const WEFT_NORMALS_RECOMPUTED: u32 = 1;
+
+/// Bytes at the start of a bindings block: its vertex count and a key of the cloth (mesh, rest
+/// (u, v), materials and blob) it was made for. Part of every `weft_bind_memory_size` result.
+pub const WEFT_BIND_HEADER_SIZE: usize = 16;
+/// Bytes per fine vertex in a bindings block (its coarse triangle, barycentric place and the
+/// cell's characteristic displacements there).
+pub const WEFT_BIND_VERTEX_SIZE: usize = 36;
+/// Required alignment (bytes) of a bindings block. `malloc` memory always qualifies.
+pub const WEFT_BIND_MEMORY_ALIGN: usize = 4;
+/// Bytes at the start of a frames block (which world it was prepared for). Part of every
+/// `weft_localize_frames_size` result.
+pub const WEFT_LOCALIZE_FRAMES_HEADER_SIZE: usize = 32;
+/// Bytes per coarse vertex in a frames block.
+pub const WEFT_LOCALIZE_FRAME_SIZE: usize = 80;
+/// Required alignment (bytes) of a frames block. `malloc` on 64-bit desktop and console
+/// platforms returns 16-aligned memory; otherwise use `aligned_alloc` / `_Alignas`.
+pub const WEFT_LOCALIZE_FRAMES_ALIGN: usize = 16;
+
 /// Sizes of the scratch area the strided input is gathered into during create.
 const STAGE_VERTEX_BYTES: usize = size_of::<[f32; 3]>() + size_of::<[f32; 2]>();
 const STAGE_TRIANGLE_BYTES: usize = size_of::<[u32; 3]>() + size_of::<u32>();
@@ -128,6 +168,9 @@ const WORLD_DEF_COOKIE: u32 = 0x5746_4431; // "WFD1"
 const COLLIDER_DEF_COOKIE: u32 = 0x5746_4331; // "WFC1"
 const BLOB_COOKIE: u32 = 0x5746_4231; // "WFB1"
 const WORLD_COOKIE: u64 = 0x5745_4654_574f_524c; // "WEFTWORL"
+const LOCALIZE_OUTPUT_COOKIE: u32 = 0x5746_4C31; // "WFL1"
+const BINDINGS_COOKIE: u32 = 0x5742_4E31; // "WBN1"
+const FRAMES_COOKIE: u32 = 0x5746_5231; // "WFR1"
 
 // The header reservation holds the handle struct, whatever the kernel's `World` grows to.
 const _: () = assert!(size_of::<WeftWorld>() <= WEFT_WORLD_HEADER_SIZE);
@@ -136,6 +179,17 @@ const _: () = assert!(WEFT_WORLD_HEADER_SIZE % WEFT_WORLD_MEMORY_ALIGN == 0);
 const _: () = assert!(WEFT_BLOB_ALIGN == blob::BASE_ALIGN);
 const _: () = assert!(WEFT_BLOB_VERSION == blob::VERSION);
 const _: () = assert!(WEFT_EFFECT_ALL == effects::ALL);
+// Bindings and frames are the kernel's own records, viewed in place in the caller's blocks.
+const _: () = assert!(size_of::<Binding>() == WEFT_BIND_VERTEX_SIZE);
+const _: () = assert!(align_of::<Binding>() <= WEFT_BIND_MEMORY_ALIGN);
+const _: () = assert!(WEFT_BIND_HEADER_SIZE % align_of::<Binding>() == 0);
+const _: () = assert!(WEFT_BIND_HEADER_SIZE == size_of::<[u32; 4]>());
+const _: () = assert!(size_of::<VertexFrame>() == WEFT_LOCALIZE_FRAME_SIZE);
+const _: () = assert!(align_of::<VertexFrame>() <= WEFT_LOCALIZE_FRAMES_ALIGN);
+const _: () = assert!(size_of::<FramesHeader>() <= WEFT_LOCALIZE_FRAMES_HEADER_SIZE);
+const _: () = assert!(align_of::<FramesHeader>() <= WEFT_LOCALIZE_FRAMES_ALIGN);
+const _: () = assert!(WEFT_LOCALIZE_FRAMES_HEADER_SIZE % WEFT_LOCALIZE_FRAMES_ALIGN == 0);
+const _: () = assert!(WEFT_LOCALIZE_FRAME_SIZE % WEFT_LOCALIZE_FRAMES_ALIGN == 0);
 
 // ---------------------------------------------------------------------------------------------
 // Types
@@ -265,6 +319,48 @@ pub enum WeftResult {
     /// wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
     /// beyond f32 resolution. The world kept the state it had before the step.
     Unstable = 68,
+
+    /// `weft_bind`: fine vertex `detail.vertex` lies outside the coarse cloth's (u, v) layout
+    /// (beyond a relative tolerance of 1e-5), or its (u, v) is NaN or infinite.
+    BindOutOfDomain = 80,
+    /// `weft_bind`: the bindings block is smaller than `weft_bind_memory_size` says:
+    /// `detail.needed` fine vertices, room for `detail.capacity`.
+    BindMemoryTooSmall = 81,
+    /// The bindings block was not written by `weft_bind` (or is truncated or overwritten: its
+    /// size disagrees with its vertex count). `detail.what` names the check.
+    BindingsInvalid = 82,
+    /// The bindings were made for another cloth: a world with a different mesh, rest (u, v),
+    /// materials or blob. Bind the render mesh to this world again.
+    BindingsMismatch = 83,
+    /// Binding `detail.index` names a coarse triangle the world does not have (corrupt binding
+    /// data that kept a valid header). Nothing was written.
+    BindingOutOfRange = 84,
+    /// `first + count` is beyond the bindings: `detail.index` is `first`, `detail.needed`
+    /// `first + count` and `detail.capacity` the number of bindings.
+    LocalizeRange = 85,
+    /// `weft_localize_prepare`: the frames block is smaller than `weft_localize_frames_size`
+    /// says: `detail.needed` coarse vertices, room for `detail.capacity`.
+    FramesTooSmall = 86,
+    /// The frames block was not filled by `weft_localize_prepare`, or was moved or overwritten
+    /// since (frames are used where they were prepared).
+    FramesNotPrepared = 87,
+    /// The frames were prepared for another world (or for a world since destroyed and created
+    /// again with another cloth in the same memory).
+    FramesMismatch = 88,
+    /// `weft_localize`: the normals overlap the positions (interleaved normals need the same
+    /// stride and bytes of their own in each record), or an interleaved normal does not fit in
+    /// its record. `detail.what` is "output.normals".
+    NormalLayout = 89,
+    /// `weft_localize` with `WEFT_NORMALS_RECOMPUTED`: fine triangle `detail.triangle` names
+    /// vertex `detail.vertex`, which is ≥ `count` (indices are relative to `first`).
+    FineIndexOutOfRange = 90,
+    /// `weft_tiled_mesh_counts` / `weft_tiled_mesh`: cell `detail.cell` tiled over the cloth
+    /// would have more vertices or triangles than a `uint32_t` counts (a tiny cell on a huge
+    /// cloth).
+    TiledMeshTooLarge = 91,
+    /// `weft_tiled_mesh`: an output holds fewer elements than `weft_tiled_mesh_counts` says:
+    /// `detail.what` names it, `detail.needed` and `detail.capacity` are the counts.
+    TiledMeshCapacity = 92,
 }
 
 /// A 3D vector (metres, or metres per second for velocities). 12 bytes, no padding, any
@@ -516,7 +612,9 @@ pub struct WeftErrorDetail {
 
 /// A world: an opaque handle that points to the start of the memory block given to
 /// `weft_world_create`. Not thread-safe: one thread at a time per world (distinct worlds may
-/// step on different threads at once).
+/// step on different threads at once). The exception: calls that take a `const WeftWorld *`
+/// only read it, so several threads may make them at once (e.g. `weft_localize` on disjoint
+/// ranges), as long as no call taking a non-const `WeftWorld *` runs meanwhile.
 pub struct WeftWorld {
     /// `WORLD_COOKIE` while alive; zeroed by `weft_world_destroy`.
     cookie: u64,
@@ -524,8 +622,9 @@ pub struct WeftWorld {
     home: *const WeftWorld,
     world: World<'static>,
     /// The parsed blob, borrowed for the world's life: localization reads its cells.
-    #[allow(dead_code)]
     blob: Blob<'static>,
+    /// Key of the cloth (mesh, rest (u, v), materials, blob) that bindings and frames carry.
+    mesh_key: u64,
     /// The last failure of a call that took this world mutably.
     last_error: WeftErrorDetail,
     /// The block's scratch area: `capacity.max_vertices` entries that gather the strided input
@@ -1184,6 +1283,49 @@ pub extern "C" fn weft_result_string(result: u32) -> *const c_char {
             R::MeshUvOutOfRange,
             c"a triangle's (u, v) size does not fit a 32-bit float",
         ),
+        (
+            R::BindOutOfDomain,
+            c"fine vertex outside the coarse cloth's (u, v)",
+        ),
+        (
+            R::BindMemoryTooSmall,
+            c"bindings block smaller than weft_bind_memory_size",
+        ),
+        (
+            R::BindingsInvalid,
+            c"not a bindings block written by weft_bind",
+        ),
+        (R::BindingsMismatch, c"bindings were made for another cloth"),
+        (
+            R::BindingOutOfRange,
+            c"binding names a coarse triangle that does not exist",
+        ),
+        (R::LocalizeRange, c"first + count beyond the bindings"),
+        (
+            R::FramesTooSmall,
+            c"frames block smaller than weft_localize_frames_size",
+        ),
+        (
+            R::FramesNotPrepared,
+            c"frames not prepared by weft_localize_prepare (or moved since)",
+        ),
+        (R::FramesMismatch, c"frames were prepared for another world"),
+        (
+            R::NormalLayout,
+            c"normals overlap the positions or leave their record",
+        ),
+        (
+            R::FineIndexOutOfRange,
+            c"fine triangle vertex index out of range",
+        ),
+        (
+            R::TiledMeshTooLarge,
+            c"tiled mesh too large for 32-bit indices",
+        ),
+        (
+            R::TiledMeshCapacity,
+            c"output smaller than weft_tiled_mesh_counts",
+        ),
     ];
     all.iter()
         .find(|(r, _)| *r as u32 == result)
@@ -1570,6 +1712,7 @@ unsafe fn create(
     };
     let world = World::new(arrays, capacity, &cloth, Materials::Blob(&parsed), settings)
         .map_err(init_fault)?;
+    let mesh_key = mesh_key(&world, &parsed);
     let handle = base.cast::<WeftWorld>();
     // SAFETY: the header area is WEFT_WORLD_HEADER_SIZE ≥ size_of::<WeftWorld>() bytes at a
     // WEFT_WORLD_MEMORY_ALIGN ≥ align_of::<WeftWorld>() aligned address, disjoint from the
@@ -1580,6 +1723,7 @@ unsafe fn create(
             home: handle,
             world,
             blob: parsed,
+            mesh_key,
             last_error: WeftErrorDetail::of(R::Ok),
             scratch: base.add(layout.stage_at).cast::<[f32; 3]>(),
             scratch_len: capacity.vertices as usize,
@@ -2051,6 +2195,789 @@ pub unsafe extern "C" fn weft_world_collider_count(world: *const WeftWorld) -> u
     unsafe { world_at(world) }.map_or(0, |w| w.world.collider_count() as u32)
 }
 
-// Localization (binding a render mesh to the cells and putting the fine pattern back on the
-// coarse cloth) will come here: `weft_bind_memory_size`, `weft_world_bind`,
-// `weft_world_localize`, with results 80–99 and `WEFT_EFFECT_LOCALIZE`.
+// ---------------------------------------------------------------------------------------------
+// Localization
+// ---------------------------------------------------------------------------------------------
+
+/// Where `weft_localize` writes a range of the fine render mesh. Get one from
+/// `weft_default_localize_output()` and edit it (a struct that did not come from there is
+/// `WEFT_RESULT_UNINITIALIZED`). Only read during the call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct WeftLocalizeOutput {
+    /// Fine vertex positions, metres: element k of the call (binding `first + k`) gets 3 floats
+    /// at byte `k * position_stride`, written unaligned, so straight into an interleaved
+    /// vertex buffer; the bytes between are left alone. NULL only when `count` is 0.
+    pub positions: *mut c_void,
+    /// Bytes from one position to the next, ≥ 12. Default 12.
+    pub position_stride: usize,
+    /// Unit normals, like `positions` (element k at byte `k * normal_stride`); NULL (the
+    /// default): no normals. Either a buffer of its own that does not overlap the positions,
+    /// or the same records (interleaved: `normal_stride` equal to `position_stride`, the
+    /// normal's 12 bytes disjoint from the position's inside each record).
+    pub normals: *mut c_void,
+    /// Bytes from one normal to the next, ≥ 12. Default 12.
+    pub normal_stride: usize,
+    /// `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
+    /// `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
+    pub normal_mode: u32,
+    /// `WEFT_NORMALS_RECOMPUTED` only: the fine triangles, 3 × `fine_triangle_count` tightly
+    /// packed `uint32_t` (4-aligned) indices *relative to this call's range* (index k is
+    /// binding `first + k`, so every index is < `count`). Counter-clockwise in (u, v), as
+    /// `weft_tiled_mesh` makes them, gives normals on the same side as the blended ones. A
+    /// vertex whose triangles all collapsed keeps the normal the buffer held (so the normals
+    /// must hold initialized values: zeros, or the last frame's). Recomputed normals need
+    /// every triangle around a vertex: localize the whole mesh in one call, or give each range
+    /// the triangles of its vertices. Default NULL.
+    pub fine_indices: *const u32,
+    /// Number of triangles at `fine_indices`. Default 0.
+    pub fine_triangle_count: u32,
+    /// Set by `weft_default_localize_output`; do not touch.
+    pub internal_cookie: u32,
+}
+
+/// The start of a frames block (private to the library).
+#[repr(C)]
+#[derive(Clone, Copy)]
+struct FramesHeader {
+    cookie: u32,
+    vertex_count: u32,
+    mesh_key: u64,
+    /// The world they were prepared from.
+    world: *const WeftWorld,
+    /// The block's own address: a moved or copied block is refused.
+    home: *const c_void,
+}
+
+/// FNV-1a, 64 bits: the cloth key of bindings and frames (a check, not a security measure).
+struct Fnv(u64);
+
+impl Fnv {
+    fn bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    fn u32(&mut self, v: u32) {
+        self.bytes(&v.to_le_bytes());
+    }
+}
+
+/// What bindings depend on: the coarse mesh, its rest (u, v), its materials and the blob (its
+/// header holds the checksum of everything else in it). Stable across runs, so bindings stored
+/// with a mesh asset still match the same cloth later.
+fn mesh_key(world: &World<'_>, blob: &Blob<'_>) -> u64 {
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    h.u32(world.vertex_count() as u32);
+    h.u32(world.triangle_count() as u32);
+    for r in world.rest_positions() {
+        h.u32(r.x.to_bits());
+        h.u32(r.y.to_bits());
+    }
+    for t in world.triangles() {
+        for &v in t {
+            h.u32(v);
+        }
+    }
+    for &m in world.triangle_materials() {
+        h.u32(m);
+    }
+    h.bytes(blob.as_bytes().get(..blob::HEADER_SIZE).unwrap_or(&[]));
+    h.0
+}
+
+/// Bytes of a bindings block for `n` fine vertices.
+fn bind_bytes(n: usize) -> Option<usize> {
+    let b = n
+        .checked_mul(WEFT_BIND_VERTEX_SIZE)?
+        .checked_add(WEFT_BIND_HEADER_SIZE)?;
+    (b <= isize::MAX as usize).then_some(b)
+}
+
+/// Bytes of a frames block for `n` coarse vertices.
+fn frames_bytes(n: usize) -> Option<usize> {
+    let b = n
+        .checked_mul(WEFT_LOCALIZE_FRAME_SIZE)?
+        .checked_add(WEFT_LOCALIZE_FRAMES_HEADER_SIZE)?;
+    (b <= isize::MAX as usize).then_some(b)
+}
+
+/// A count as `u32` for an error detail (saturating).
+fn count32(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// Writes the detail of a call that reports through an `out_detail` argument.
+///
+/// # Safety
+/// `out_detail` is NULL or writable.
+unsafe fn detailed(out_detail: *mut WeftErrorDetail, r: FfiResult<()>) -> WeftResult {
+    let detail = match r {
+        Ok(()) => WeftErrorDetail::of(WeftResult::Ok),
+        Err(d) => d,
+    };
+    // SAFETY: NULL or writable per the contract.
+    unsafe { write_opt(out_detail, detail) };
+    detail.result
+}
+
+/// A bindings block's count, key and records, after checking its header against its size.
+///
+/// # Safety
+/// A non-null `p` is readable for `size` bytes for `'a`.
+unsafe fn bindings_block<'a>(p: *const c_void, size: usize) -> FfiResult<(u64, &'a [Binding])> {
+    use WeftResult as R;
+    if p.is_null() {
+        return Err(null(c"bindings"));
+    }
+    if (p as usize) % WEFT_BIND_MEMORY_ALIGN != 0 {
+        return Err(fault(R::Misaligned).what(c"bindings"));
+    }
+    if size < WEFT_BIND_HEADER_SIZE {
+        return Err(fault(R::BindingsInvalid).what(c"bindings_size"));
+    }
+    // SAFETY: 16 readable bytes (size checked), 4-aligned; u32 is valid for any bytes.
+    let [cookie, count, lo, hi] = unsafe { p.cast::<[u32; 4]>().read() };
+    if cookie != BINDINGS_COOKIE {
+        return Err(fault(R::BindingsInvalid).what(c"bindings"));
+    }
+    let n = count as usize;
+    if bind_bytes(n).is_none_or(|b| b > size) {
+        return Err(fault(R::BindingsInvalid).what(c"bindings_size"));
+    }
+    // SAFETY: the records lie within the `size` readable bytes (checked), 4-aligned (the block
+    // is, and the header is 16 bytes); Binding is plain data (u32 and f32), valid for any bytes.
+    let records = unsafe {
+        core::slice::from_raw_parts(
+            p.cast::<u8>().add(WEFT_BIND_HEADER_SIZE).cast::<Binding>(),
+            n,
+        )
+    };
+    Ok((u64::from(lo) | (u64::from(hi) << 32), records))
+}
+
+/// The frames prepared in `p` for the world `w` (at `handle`).
+///
+/// # Safety
+/// A non-null `p` is readable for `WEFT_LOCALIZE_FRAMES_HEADER_SIZE` bytes and, when its
+/// header says it was prepared here, for the frames it announces, for `'a`.
+unsafe fn frames_at<'a>(
+    p: *const c_void,
+    handle: *const WeftWorld,
+    w: &WeftWorld,
+) -> FfiResult<&'a [VertexFrame]> {
+    use WeftResult as R;
+    if p.is_null() {
+        return Err(null(c"frames"));
+    }
+    if (p as usize) % WEFT_LOCALIZE_FRAMES_ALIGN != 0 {
+        return Err(fault(R::Misaligned).what(c"frames"));
+    }
+    // SAFETY: readable and aligned per the contract; integers and raw pointers are valid for
+    // any bytes.
+    let h = unsafe { p.cast::<FramesHeader>().read() };
+    if h.cookie != FRAMES_COOKIE || h.home != p {
+        return Err(fault(R::FramesNotPrepared).what(c"frames"));
+    }
+    let n = w.world.vertex_count();
+    if h.world != handle || h.vertex_count as usize != n || h.mesh_key != w.mesh_key {
+        return Err(fault(R::FramesMismatch).what(c"frames"));
+    }
+    // SAFETY: weft_localize_prepare checked the block holds n frames after the header and
+    // wrote them (the cookie and home say so); 16-aligned.
+    Ok(unsafe {
+        core::slice::from_raw_parts(
+            p.cast::<u8>()
+                .add(WEFT_LOCALIZE_FRAMES_HEADER_SIZE)
+                .cast::<VertexFrame>(),
+            n,
+        )
+    })
+}
+
+fn tiled_fault(e: BindError, cell: u32) -> Fault {
+    use WeftResult as R;
+    match e {
+        BindError::NoSuchCell { .. } => fault(R::BlobCellOutOfRange).cell(cell),
+        BindError::TooLarge => fault(R::TiledMeshTooLarge).cell(cell),
+        BindError::BufferTooSmall { needed, len } => {
+            fault(R::TiledMeshCapacity).needed(count32(needed), count32(len))
+        }
+        _ => fault(R::Internal).what(c"tiled mesh"),
+    }
+}
+
+/// A `WeftLocalizeOutput` with every field at its default: no buffers yet (set `positions`,
+/// and `normals` if wanted), strides 12, blended normals.
+#[no_mangle]
+pub extern "C" fn weft_default_localize_output() -> WeftLocalizeOutput {
+    WeftLocalizeOutput {
+        positions: ptr::null_mut(),
+        position_stride: size_of::<WeftVec3>(),
+        normals: ptr::null_mut(),
+        normal_stride: size_of::<WeftVec3>(),
+        normal_mode: WEFT_NORMALS_BLENDED,
+        fine_indices: ptr::null(),
+        fine_triangle_count: 0,
+        internal_cookie: LOCALIZE_OUTPUT_COOKIE,
+    }
+}
+
+/// Bytes of a bindings block for `fine_vertex_count` fine vertices, in `*out_size`:
+/// `WEFT_BIND_HEADER_SIZE + WEFT_BIND_VERTEX_SIZE * fine_vertex_count`.
+/// `WEFT_RESULT_CAPACITY_TOO_LARGE` when that does not fit in `size_t`.
+///
+/// # Safety
+/// `out_size` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_bind_memory_size(
+    fine_vertex_count: u32,
+    out_size: *mut usize,
+) -> WeftResult {
+    done((|| {
+        let out = out_ptr(out_size, c"out_size")?;
+        let size =
+            bind_bytes(fine_vertex_count as usize).ok_or(fault(WeftResult::CapacityTooLarge))?;
+        // SAFETY: checked; writable per the contract.
+        unsafe { out.write(size) };
+        Ok(())
+    })())
+}
+
+/// Binds a fine render mesh to the world's coarse cloth, once per mesh: for each fine vertex,
+/// its coarse triangle, its barycentric place there and the cells' characteristic
+/// displacements at its (u, v), written to the caller's bindings block. The block is plain,
+/// position-independent data: it can be stored with the mesh asset and used with any world
+/// made from the same cloth (mesh, rest (u, v), materials and blob bytes); `weft_localize`
+/// refuses it for any other (`WEFT_RESULT_BINDINGS_MISMATCH`).
+///
+/// - `fine_uvs`: material coordinates (u, v) in metres, in the same layout as the coarse
+///   `WeftWorldDef.uvs` (the cell pattern repeats every cell width from u = v = 0): 2 floats
+///   per fine vertex, vertex i at byte `i * uv_stride`, read unaligned. NULL only when
+///   `fine_vertex_count` is 0. Points on a coarse edge or vertex get the same binding
+///   whichever copy of the vertex they are (seams stay closed).
+/// - `uv_stride`: ≥ 8.
+/// - `out_bindings`: `bindings_size` bytes, `WEFT_BIND_MEMORY_ALIGN`-aligned, at least
+///   `weft_bind_memory_size(fine_vertex_count)`; written only on success. Owned by the caller.
+/// - `out_detail`: NULL, or filled on every call (`WEFT_RESULT_BIND_OUT_OF_DOMAIN` names the
+///   vertex).
+///
+/// Cost: a point location per vertex, walking from the previous vertex's triangle (fast for
+/// coherent vertex orders such as a tiled mesh's), plus an interpolation in the cell: about
+/// 0.25–0.6 µs per vertex on a desktop core. Reads the world only (see `WeftWorld` on
+/// threads).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `fine_uvs` is readable for
+/// `(fine_vertex_count - 1) * uv_stride + 8` bytes; `out_bindings` is writable for
+/// `bindings_size` bytes and overlaps neither `fine_uvs` nor the world's memory; a non-NULL
+/// `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_bind(
+    world: *const WeftWorld,
+    fine_uvs: *const c_void,
+    fine_vertex_count: u32,
+    uv_stride: usize,
+    out_bindings: *mut c_void,
+    bindings_size: usize,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let run = || -> FfiResult<()> {
+        use WeftResult as R;
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        if out_bindings.is_null() {
+            return Err(null(c"out_bindings"));
+        }
+        if (out_bindings as usize) % WEFT_BIND_MEMORY_ALIGN != 0 {
+            return Err(fault(R::Misaligned).what(c"out_bindings"));
+        }
+        let n = fine_vertex_count as usize;
+        let needed = bind_bytes(n).ok_or(fault(R::CapacityTooLarge))?;
+        if bindings_size < needed {
+            let room = bindings_size.saturating_sub(WEFT_BIND_HEADER_SIZE) / WEFT_BIND_VERTEX_SIZE;
+            return Err(fault(R::BindMemoryTooSmall)
+                .what(c"bindings_size")
+                .needed(fine_vertex_count, count32(room)));
+        }
+        check_strided(fine_uvs, n, uv_stride, 8, c"fine_uvs", c"uv_stride")?;
+        let uv = if n == 0 {
+            Strided::from_slice(&[])
+        } else {
+            let extent = strided_extent(n, uv_stride, 8).ok_or(invalid(c"uv_stride"))?;
+            // SAFETY: non-null (checked), readable for the extent per the contract.
+            let bytes = unsafe { core::slice::from_raw_parts(fine_uvs.cast::<u8>(), extent) };
+            Strided::<2>::new(bytes, uv_stride, n).map_err(|_| invalid(c"uv_stride"))?
+        };
+        let base = out_bindings.cast::<u8>();
+        // SAFETY: the records lie within the writable block (size checked), 4-aligned, disjoint
+        // from the inputs per the contract; Binding is plain data valid for any bytes.
+        let records = unsafe {
+            core::slice::from_raw_parts_mut(base.add(WEFT_BIND_HEADER_SIZE).cast::<Binding>(), n)
+        };
+        localize::bind(&w.world, &w.blob, &uv, records).map_err(|e| match e {
+            BindError::OutOfDomain { vertex } => fault(R::BindOutOfDomain).vertex(vertex),
+            _ => fault(R::Internal).what(c"bind"),
+        })?;
+        let key = w.mesh_key;
+        // SAFETY: the header's 16 bytes are within the block, 4-aligned.
+        unsafe {
+            base.cast::<[u32; 4]>().write([
+                BINDINGS_COOKIE,
+                fine_vertex_count,
+                key as u32,
+                (key >> 32) as u32,
+            ])
+        };
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { detailed(out_detail, run()) }
+}
+
+/// The number of fine vertices a bindings block holds (written by `weft_bind`), in
+/// `*out_count`: e.g. for a block loaded from a file. Checks the block's header against
+/// `bindings_size` (`WEFT_RESULT_BINDINGS_INVALID`), not against a world.
+///
+/// # Safety
+/// `bindings` is readable for `bindings_size` bytes; `out_count` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_bind_vertex_count(
+    bindings: *const c_void,
+    bindings_size: usize,
+    out_count: *mut u32,
+) -> WeftResult {
+    done((|| {
+        let out = out_ptr(out_count, c"out_count")?;
+        // SAFETY: forwarded contract.
+        let (_, records) = unsafe { bindings_block(bindings, bindings_size) }?;
+        // SAFETY: checked; writable per the contract.
+        unsafe { out.write(count32(records.len())) };
+        Ok(())
+    })())
+}
+
+/// Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
+/// WEFT_LOCALIZE_FRAME_SIZE * weft_world_vertex_count(world)`, a multiple of
+/// `WEFT_LOCALIZE_FRAMES_ALIGN` (as C11 `aligned_alloc` wants).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_localize_frames_size(
+    world: *const WeftWorld,
+    out_size: *mut usize,
+) -> WeftResult {
+    done((|| {
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let out = out_ptr(out_size, c"out_size")?;
+        let size = frames_bytes(w.world.vertex_count()).ok_or(fault(WeftResult::Internal))?;
+        // SAFETY: checked; writable per the contract.
+        unsafe { out.write(size) };
+        Ok(())
+    })())
+}
+
+/// Once per frame, after the step and before `weft_localize`: measures the coarse cloth's
+/// current deformation (per coarse triangle, area-averaged to its vertices, so the fine mesh
+/// has no cracks) into the caller's frames block. O(coarse triangles).
+///
+/// - `strain_measure`: `WEFT_STRAIN_COROTATED` or `WEFT_STRAIN_GREEN`; anything else is
+///   `WEFT_RESULT_INVALID_ARGUMENT`.
+/// - `frames`: `frames_size` bytes, `WEFT_LOCALIZE_FRAMES_ALIGN`-aligned, at least
+///   `weft_localize_frames_size(world)`; written only on success. Owned by the caller; used
+///   where it was prepared (a moved or copied block is `WEFT_RESULT_FRAMES_NOT_PREPARED`), and
+///   it describes the world as it was at this call until prepared again.
+/// - `out_detail`: NULL, or filled on every call.
+///
+/// Reads the world only (see `WeftWorld` on threads).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `frames` is writable for
+/// `frames_size` bytes and does not overlap the world's memory; a non-NULL `out_detail` is
+/// writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_localize_prepare(
+    world: *const WeftWorld,
+    strain_measure: u32,
+    frames: *mut c_void,
+    frames_size: usize,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let run = || -> FfiResult<()> {
+        use WeftResult as R;
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let measure = match strain_measure {
+            WEFT_STRAIN_COROTATED => StrainMeasure::Corotated,
+            WEFT_STRAIN_GREEN => StrainMeasure::Green,
+            _ => return Err(invalid(c"strain_measure")),
+        };
+        if frames.is_null() {
+            return Err(null(c"frames"));
+        }
+        if (frames as usize) % WEFT_LOCALIZE_FRAMES_ALIGN != 0 {
+            return Err(fault(R::Misaligned).what(c"frames"));
+        }
+        let n = w.world.vertex_count();
+        let needed = frames_bytes(n).ok_or(fault(R::Internal))?;
+        if frames_size < needed {
+            let room = frames_size.saturating_sub(WEFT_LOCALIZE_FRAMES_HEADER_SIZE)
+                / WEFT_LOCALIZE_FRAME_SIZE;
+            return Err(fault(R::FramesTooSmall)
+                .what(c"frames_size")
+                .needed(count32(n), count32(room)));
+        }
+        let base = frames.cast::<u8>();
+        // SAFETY: within the writable block (size checked), 16-aligned, disjoint from the world
+        // per the contract; VertexFrame is plain f32 data valid for any bytes (and `prepare`
+        // overwrites every one before reading).
+        let slots = unsafe {
+            core::slice::from_raw_parts_mut(
+                base.add(WEFT_LOCALIZE_FRAMES_HEADER_SIZE)
+                    .cast::<VertexFrame>(),
+                n,
+            )
+        };
+        localize::prepare(&w.world, measure, slots)
+            .map_err(|_| fault(R::Internal).what(c"prepare"))?;
+        // SAFETY: the header lies at the block's 16-aligned start, within it.
+        unsafe {
+            base.cast::<FramesHeader>().write(FramesHeader {
+                cookie: FRAMES_COOKIE,
+                vertex_count: count32(n),
+                mesh_key: w.mesh_key,
+                world,
+                home: frames,
+            })
+        };
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { detailed(out_detail, run()) }
+}
+
+/// Puts the fine pattern back on the coarse cloth (the paper's Eq. 20–23): writes fine vertices
+/// `first .. first + count` of a bound render mesh (positions, and normals if asked) to the
+/// buffers of `*output`; element k of the output is binding `first + k`. Each fine vertex lands
+/// at its barycentric place on the current coarse triangle plus the cell's micro displacement
+/// under the blended macro strain, so the fine mesh shows the pattern's own deformation (soft
+/// layers stretching more than hard ones) without cracks across coarse edges or cells.
+///
+/// - `frames`: prepared by `weft_localize_prepare` from this world.
+/// - `bindings`, `bindings_size`: a block written by `weft_bind` for this world's cloth.
+/// - `first`, `count`: the range of fine vertices; `first + count` ≤ the bindings' vertex
+///   count. Disjoint ranges can go to different threads at once (the call reads the world,
+///   frames and bindings only), e.g. `first = k * n / jobs` with `output.positions` pointing at
+///   that range's first record.
+/// - `output`: from `weft_default_localize_output()`, with the buffers set.
+/// - `out_detail`: NULL, or filled on every call.
+///
+/// Everything is checked before anything is written: on failure no output byte changed.
+/// Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
+/// core), about 1.3 × that with blended normals, about 6 × with recomputed normals.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `frames` a block given to
+/// `weft_localize_prepare` (or any readable memory of `WEFT_LOCALIZE_FRAMES_HEADER_SIZE`
+/// bytes); `bindings` is readable for `bindings_size` bytes; `output` is readable, and the
+/// buffers it names are writable for their strided extents (`fine_indices` readable) and
+/// overlap neither each other (interleaved normals aside, as `WeftLocalizeOutput.normals`
+/// describes) nor the world's memory, the frames or the bindings; a non-NULL `out_detail` is writable. No other thread writes any of them
+/// during the call.
+#[no_mangle]
+pub unsafe extern "C" fn weft_localize(
+    world: *const WeftWorld,
+    frames: *const c_void,
+    bindings: *const c_void,
+    bindings_size: usize,
+    first: u32,
+    count: u32,
+    output: *const WeftLocalizeOutput,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    let r =
+        unsafe { localize_checked(world, frames, bindings, bindings_size, first, count, output) };
+    // SAFETY: forwarded contract.
+    unsafe { detailed(out_detail, r) }
+}
+
+/// # Safety
+/// As [`weft_localize`].
+unsafe fn localize_checked(
+    world: *const WeftWorld,
+    frames: *const c_void,
+    bindings: *const c_void,
+    bindings_size: usize,
+    first: u32,
+    count: u32,
+    output: *const WeftLocalizeOutput,
+) -> FfiResult<()> {
+    use WeftResult as R;
+    // SAFETY: forwarded contract.
+    let w = unsafe { world_at(world) }?;
+    // SAFETY: readable per the contract.
+    let o = unsafe { read_ref(output, c"output") }?;
+    if o.internal_cookie != LOCALIZE_OUTPUT_COOKIE {
+        return Err(fault(R::Uninitialized).what(c"output"));
+    }
+    let recompute = match o.normal_mode {
+        WEFT_NORMALS_BLENDED => false,
+        WEFT_NORMALS_RECOMPUTED => true,
+        _ => return Err(invalid(c"output.normal_mode")),
+    };
+    // SAFETY: forwarded contract.
+    let frames = unsafe { frames_at(frames, world, w) }?;
+    // SAFETY: forwarded contract.
+    let (key, all) = unsafe { bindings_block(bindings, bindings_size) }?;
+    if key != w.mesh_key {
+        return Err(fault(R::BindingsMismatch).what(c"bindings"));
+    }
+    let n = count as usize;
+    let range_fault = || {
+        let mut f = fault(R::LocalizeRange).index(first);
+        f.needed = first.saturating_add(count);
+        f.capacity = count32(all.len());
+        f
+    };
+    let end = (first as usize).checked_add(n).ok_or_else(range_fault)?;
+    let range = all.get(first as usize..end).ok_or_else(range_fault)?;
+
+    let (pp, ps) = (o.positions, o.position_stride);
+    check_strided(
+        pp,
+        n,
+        ps,
+        12,
+        c"output.positions",
+        c"output.position_stride",
+    )?;
+    let normals = !o.normals.is_null();
+    let (np, ns) = (o.normals, o.normal_stride);
+    if normals {
+        check_strided(np, n, ns, 12, c"output.normals", c"output.normal_stride")?;
+    }
+    let fine: &[[u32; 3]] = if normals && recompute && o.fine_triangle_count > 0 {
+        let t = o.fine_indices;
+        if t.is_null() {
+            return Err(null(c"output.fine_indices"));
+        }
+        if !t.is_aligned() {
+            return Err(fault(R::Misaligned).what(c"output.fine_indices"));
+        }
+        let nt = o.fine_triangle_count as usize;
+        if nt.checked_mul(12).is_none_or(|b| b > isize::MAX as usize) {
+            return Err(invalid(c"output.fine_triangle_count"));
+        }
+        // SAFETY: non-null, 4-aligned, readable for nt triangles per the contract.
+        let tris = unsafe { core::slice::from_raw_parts(t.cast::<[u32; 3]>(), nt) };
+        for (ti, tri) in tris.iter().enumerate() {
+            if let Some(&v) = tri.iter().find(|&&v| v >= count) {
+                return Err(fault(R::FineIndexOutOfRange)
+                    .triangle(count32(ti))
+                    .vertex(v)
+                    .what(c"output.fine_indices"));
+            }
+        }
+        tris
+    } else {
+        &[]
+    };
+    // Bindings from a matching block name existing triangles unless the data was damaged:
+    // checked here so that the kernel cannot stop half-way.
+    let nt = w.world.triangle_count();
+    if let Some(i) = range.iter().position(|b| b.triangle as usize >= nt) {
+        return Err(fault(R::BindingOutOfRange)
+            .index(first.saturating_add(count32(i)))
+            .what(c"bindings"));
+    }
+    if n == 0 {
+        return Ok(());
+    }
+    fn layout<E>(_: E) -> Fault {
+        fault(WeftResult::NormalLayout).what(c"output.normals")
+    }
+    fn internal<E>(_: E) -> Fault {
+        fault(WeftResult::Internal).what(c"localize")
+    }
+    let pe = strided_extent(n, ps, 12).ok_or(invalid(c"output.position_stride"))?;
+    let p_end = (pp as usize)
+        .checked_add(pe)
+        .ok_or(invalid(c"output.positions"))?;
+    let tris = w.world.triangles();
+    if !normals {
+        // SAFETY: non-null, writable for the extent per the contract, disjoint from the inputs.
+        let bytes = unsafe { core::slice::from_raw_parts_mut(pp.cast::<u8>(), pe) };
+        let mut pos = StridedMut::<3>::new(bytes, ps, n).map_err(internal)?;
+        return localize::localize(frames, tris, range, 0, &mut pos, None).map_err(internal);
+    }
+    let ne = strided_extent(n, ns, 12).ok_or(invalid(c"output.normal_stride"))?;
+    let n_end = (np as usize)
+        .checked_add(ne)
+        .ok_or(invalid(c"output.normals"))?;
+    let overlap = (pp as usize) < n_end && (np as usize) < p_end;
+    if !overlap {
+        // SAFETY: both non-null, writable for their extents per the contract, and disjoint
+        // (checked) from each other and (per the contract) from the inputs.
+        let (pb, nb) = unsafe {
+            (
+                core::slice::from_raw_parts_mut(pp.cast::<u8>(), pe),
+                core::slice::from_raw_parts_mut(np.cast::<u8>(), ne),
+            )
+        };
+        let mut pos = StridedMut::<3>::new(pb, ps, n).map_err(internal)?;
+        let mut nrm = StridedMut::<3>::new(nb, ns, n).map_err(internal)?;
+        return if recompute {
+            localize::localize(frames, tris, range, 0, &mut pos, None).map_err(internal)?;
+            localize::recompute_normals(fine, &mut pos, NormalTarget::Buffer(&mut nrm))
+                .map_err(internal)
+        } else {
+            localize::localize(
+                frames,
+                tris,
+                range,
+                0,
+                &mut pos,
+                Some(NormalTarget::Buffer(&mut nrm)),
+            )
+            .map_err(internal)
+        };
+    }
+    // Interleaved: one view of the records, the normal at its own offset in each.
+    let lo = (pp as usize).min(np as usize);
+    let (po, no) = (pp as usize - lo, np as usize - lo);
+    let disjoint = po + 12 <= no || no + 12 <= po;
+    if ps != ns || po + 12 > ps || no + 12 > ps || !disjoint {
+        return Err(layout(()));
+    }
+    let len = p_end.max(n_end) - lo;
+    let start = if po == 0 { pp } else { np };
+    // SAFETY: [lo, lo + len) is the union of the two writable extents, which overlap (so the
+    // union is one range); disjoint from the inputs per the contract.
+    let bytes = unsafe { core::slice::from_raw_parts_mut(start.cast::<u8>(), len) };
+    let mut pos = StridedMut::<3>::with_offset(bytes, ps, po, n).map_err(layout)?;
+    let target = NormalTarget::Interleaved { offset: no };
+    if recompute {
+        localize::localize(frames, tris, range, 0, &mut pos, None).map_err(internal)?;
+        localize::recompute_normals(fine, &mut pos, target).map_err(internal)
+    } else {
+        localize::localize(frames, tris, range, 0, &mut pos, Some(target)).map_err(internal)
+    }
+}
+
+/// The size of cell `cell`'s micro mesh tiled over the cloth (`weft_tiled_mesh`): vertices in
+/// `*out_vertex_count`, triangles in `*out_triangle_count`.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); the outputs are writable; a
+/// non-NULL `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_tiled_mesh_counts(
+    world: *const WeftWorld,
+    cell: u32,
+    out_vertex_count: *mut u32,
+    out_triangle_count: *mut u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let run = || -> FfiResult<()> {
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let ov = out_ptr(out_vertex_count, c"out_vertex_count")?;
+        let ot = out_ptr(out_triangle_count, c"out_triangle_count")?;
+        let (nv, nt) = tiled_counts(w, cell)?;
+        // SAFETY: checked; writable per the contract.
+        unsafe {
+            ov.write(nv);
+            ot.write(nt);
+        }
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { detailed(out_detail, run()) }
+}
+
+fn tiled_counts(w: &WeftWorld, cell: u32) -> FfiResult<(u32, u32)> {
+    let (nv, nt) =
+        localize::tiled_mesh_counts(&w.world, &w.blob, cell).map_err(|e| tiled_fault(e, cell))?;
+    match (u32::try_from(nv), u32::try_from(nt)) {
+        (Ok(v), Ok(t)) if nt.checked_mul(3).is_some_and(|i| u32::try_from(i).is_ok()) => Ok((v, t)),
+        _ => Err(fault(WeftResult::TiledMeshTooLarge).cell(cell)),
+    }
+}
+
+/// Cell `cell`'s micro mesh (any cell of the world's blob) tiled over the (u, v) bounding box
+/// of the cloth: a fine render mesh that shows the pattern, ready for `weft_bind`. A grid on
+/// the cell's own lattice (square side `WeftCellInfo.width / (cols * refine)`, anchored at
+/// u = v = 0 like the cells), the outer rows and columns clamped to the box. Vertices go row
+/// by row (a row along u, rows from the lowest v up); each square is split into two
+/// counter-clockwise triangles. For a cloth that is
+/// not a rectangle in (u, v), drop the vertices outside it before binding
+/// (`WEFT_RESULT_BIND_OUT_OF_DOMAIN` names them).
+///
+/// - `out_uvs`: `uv_capacity` ≥ the vertex count of `weft_tiled_mesh_counts`; receives each
+///   vertex's (u, v), metres (tightly packed; 4-aligned).
+/// - `out_indices`: 3 × `triangle_capacity` `uint32_t`, `triangle_capacity` ≥ the triangle
+///   count; receives 3 vertex indices per triangle.
+/// - `out_materials`: NULL, or `triangle_capacity` `uint32_t` that receive each triangle's
+///   pattern material: its index among the cell's materials, which `weft-cell` numbers in the
+///   sorted order of the cell file's material keys.
+/// - `out_detail`: NULL, or filled on every call.
+///
+/// Of each output, only the first (vertex or triangle count) elements are written, and only on
+/// success.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); the outputs are writable for their
+/// capacities and do not overlap each other or the world's memory; a non-NULL `out_detail`
+/// is writable.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn weft_tiled_mesh(
+    world: *const WeftWorld,
+    cell: u32,
+    out_uvs: *mut WeftVec2,
+    uv_capacity: u32,
+    out_indices: *mut u32,
+    triangle_capacity: u32,
+    out_materials: *mut u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let run = || -> FfiResult<()> {
+        use WeftResult as R;
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let uvs = out_ptr(out_uvs, c"out_uvs")?;
+        let idx = out_ptr(out_indices, c"out_indices")?;
+        if !out_materials.is_aligned() {
+            return Err(fault(R::Misaligned).what(c"out_materials"));
+        }
+        let (nv, nt) = tiled_counts(w, cell)?;
+        if uv_capacity < nv {
+            return Err(fault(R::TiledMeshCapacity)
+                .what(c"uv_capacity")
+                .needed(nv, uv_capacity));
+        }
+        if triangle_capacity < nt {
+            return Err(fault(R::TiledMeshCapacity)
+                .what(c"triangle_capacity")
+                .needed(nt, triangle_capacity));
+        }
+        // SAFETY: non-null and aligned (checked), writable for the capacities ≥ the counts per
+        // the contract, disjoint; WeftVec2 is [f32; 2] in layout and every type is plain data.
+        let (uv_out, tri_out, mat_out) = unsafe {
+            (
+                core::slice::from_raw_parts_mut(uvs.cast::<[f32; 2]>(), nv as usize),
+                core::slice::from_raw_parts_mut(idx.cast::<[u32; 3]>(), nt as usize),
+                (!out_materials.is_null())
+                    .then(|| core::slice::from_raw_parts_mut(out_materials, nt as usize)),
+            )
+        };
+        localize::tiled_mesh(&w.world, &w.blob, cell, uv_out, tri_out, mat_out)
+            .map_err(|e| tiled_fault(e, cell))?;
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { detailed(out_detail, run()) }
+}

@@ -163,6 +163,19 @@ fn run_everywhere(source: &str, args: &[&str], expect: &[&str]) -> String {
     stdout
 }
 
+/// The numbers after `label` on the line that starts with it (`[`, `]`, `,`, `%` and words are
+/// skipped).
+fn numbers_after(out: &str, label: &str) -> Vec<f64> {
+    let line = out
+        .lines()
+        .find(|l| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no line starting with {label:?} in\n{out}"));
+    line[label.len()..]
+        .split(|c: char| c.is_whitespace() || "[],:%=()".contains(c))
+        .filter_map(|w| w.parse::<f64>().ok())
+        .collect()
+}
+
 #[test]
 fn hello_c() {
     let out = run_everywhere(
@@ -171,10 +184,29 @@ fn hello_c() {
         &[
             "cell 0: stripes",
             "world: 256 vertices, 450 triangles",
+            "fine mesh: 160801 vertices, 320000 triangles (cell 0 tiled at 1.25 mm)",
             "hello: ok",
         ],
     );
     print!("{out}");
+    // The localized fine mesh spans the hanging coarse cloth to within the micro displacement.
+    let coarse = numbers_after(&out, "coarse extent:");
+    let fine = numbers_after(&out, "fine   extent:");
+    assert_eq!((coarse.len(), fine.len()), (6, 6), "{out}");
+    for (c, f) in coarse.iter().zip(&fine) {
+        assert!((c - f).abs() < 5e-4, "extents differ: {coarse:?} {fine:?}");
+    }
+    assert!(coarse[5] - coarse[4] > 0.2, "the cloth hangs: {coarse:?}");
+    // The stripes split the stretch across them like a laminate: the soft layers (material 1,
+    // '.', 10 × softer) take far more than the hard ones, and the two average (they are
+    // equally thick) to the coarse cloth's strain.
+    let s = numbers_after(&out, "strain along v (Green, mean over edges along v):");
+    let (coarse, fine, m0, m1) = (s[0], s[1], s[3], s[5]);
+    assert_eq!((s[2], s[4]), (0.0, 1.0), "material indices: {s:?}");
+    assert!(coarse > 0.01, "the cloth is stretched along v: {s:?}");
+    assert!((fine - coarse).abs() < 0.1 * coarse, "{s:?}");
+    assert!((0.5 * (m0 + m1) - coarse).abs() < 0.1 * coarse, "{s:?}");
+    assert!(m1 > 5.0 * m0 && m0 > 0.0, "{s:?}");
 }
 
 #[test]
@@ -196,18 +228,85 @@ fn engine_loop_c() {
             "asleep step: skipped",
             "after moving a pin: awake",
             "destroyed handle: not a live world handle",
+            "render mesh: 1156 vertices, 2178 triangles, 41632 bytes of bindings, 11552 bytes \
+             of frames",
+            "unprepared frames: frames not prepared by weft_localize_prepare",
+            "outside the cloth: fine vertex outside the coarse cloth's (u, v) [vertex 4]",
+            "small bindings: bindings block smaller than weft_bind_memory_size [needed 1156] \
+             [capacity 6]",
+            "not bindings: not a bindings block written by weft_bind",
+            "range: first + count beyond the bindings [needed 1157] [capacity 1156]",
+            "overlapping normals: normals overlap the positions or leave their record",
+            "strain measure: argument out of range [strain_measure]",
+            "wrote ",
             "engine_loop: ok",
         ],
     );
     print!("{out}");
+    // Render vertices on cloth vertices land on them, up to the micro displacement.
+    let gap = numbers_after(&out, "render vertices on cloth vertices:");
+    assert!(gap[0] < 1.0, "{gap:?} mm");
+    assert!(gap[1] < 1e-5, "normals not unit: {gap:?}");
+
+    // The OBJ is the localized render mesh: 34 × 34 vertices with normals, above the floor,
+    // each normal on the side its faces face (counter-clockwise in (u, v)).
     let obj = std::fs::read_to_string(&obj).unwrap();
-    let count = |p: &str| obj.lines().filter(|l| l.starts_with(p)).count();
-    assert_eq!(count("v "), 144);
-    assert_eq!(count("f "), 242);
-    for line in obj.lines().filter(|l| l.starts_with("v ")) {
-        let z: f32 = line.split(' ').nth(3).unwrap().parse().unwrap();
-        assert!(z.is_finite() && z > -0.41, "{line}");
+    let rows = |p: &str| -> Vec<[f32; 3]> {
+        obj.lines()
+            .filter(|l| l.starts_with(p))
+            .map(|l| {
+                let v: Vec<f32> = l.split(' ').skip(1).map(|w| w.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect()
+    };
+    let (v, vn) = (rows("v "), rows("vn "));
+    let faces: Vec<[usize; 3]> = obj
+        .lines()
+        .filter(|l| l.starts_with("f "))
+        .map(|l| {
+            let i: Vec<usize> = l
+                .split(' ')
+                .skip(1)
+                .map(|w| w.split("//").next().unwrap().parse::<usize>().unwrap() - 1)
+                .collect();
+            [i[0], i[1], i[2]]
+        })
+        .collect();
+    assert_eq!((v.len(), vn.len(), faces.len()), (1156, 1156, 2178));
+    for p in &v {
+        assert!(p.iter().all(|c| c.is_finite()) && p[2] > -0.41, "{p:?}");
     }
+    let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let mut agree = 0;
+    for f in &faces {
+        let (e1, e2) = (sub(v[f[1]], v[f[0]]), sub(v[f[2]], v[f[0]]));
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let m = vn[f[0]];
+        agree += usize::from(n[0] * m[0] + n[1] * m[1] + n[2] * m[2] > 0.0);
+    }
+    assert!(
+        agree * 100 >= faces.len() * 99,
+        "{agree} of {} faces",
+        faces.len()
+    );
+    // The render mesh spans the cloth: 0.6 m across in (u, v), hanging from z 0.55.
+    let (lo, hi) = v
+        .iter()
+        .fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), p| {
+            (
+                std::array::from_fn(|k| lo[k].min(p[k])),
+                std::array::from_fn(|k| hi[k].max(p[k])),
+            )
+        });
+    assert!(
+        (0.55 - hi[2]).abs() < 0.01 && hi[2] - lo[2] > 0.3,
+        "{lo:?} {hi:?}"
+    );
 }
 
 #[test]
@@ -219,11 +318,25 @@ fn wrapper_cpp() {
             "blob: 1 cell(s), cell 0 is 'stripes'",
             "caught: weft_world_set_pin: vertex index out of range, vertex 100000",
             "caught: weft_world_create: triangle material is not a cell of the blob, triangle 0, material 7",
+            "render mesh: 1073 vertices (4 x finer), localized on 2 threads every frame",
+            "caught: weft_localize: bindings were made for another cloth (bindings)",
             "moved world: 80 vertices",
             "wrapper: ok",
         ],
     );
     print!("{out}");
+    let n = numbers_after(&out, "render mesh:");
+    assert_eq!(n[..3], [1073.0, 4.0, 2.0], "{n:?}");
+    assert!(
+        n[3] < 0.5,
+        "render corners {} mm from the simulated ones",
+        n[3]
+    );
+    assert!(
+        n[4] < 30.0,
+        "recomputed normals {} degrees off the blended ones",
+        n[4]
+    );
 }
 
 /// `cc hello.c libweft.a` with no `-lm -lpthread -ldl`, and the archive asks the C runtime for
@@ -279,7 +392,16 @@ fn staticlib_needs_no_system_libraries() {
         "libweft.a references symbols beyond libc's basics: {unexpected:?}"
     );
     let exported: Vec<&String> = defined.iter().filter(|s| s.starts_with("weft_")).collect();
-    assert!(exported.len() >= 30, "{exported:?}");
+    assert!(exported.len() >= 40, "{exported:?}");
+    for f in [
+        "weft_bind",
+        "weft_bind_memory_size",
+        "weft_localize_prepare",
+        "weft_localize",
+        "weft_tiled_mesh",
+    ] {
+        assert!(defined.contains(f), "libweft.a does not export {f}");
+    }
 }
 
 /// The header alone, in every language mode the README promises, with every warning an error.
@@ -393,6 +515,16 @@ fn c_layout_matches_rust() {
         shape,
         friction,
         thickness,
+        internal_cookie
+    });
+    layout!(WeftLocalizeOutput {
+        positions,
+        position_stride,
+        normals,
+        normal_stride,
+        normal_mode,
+        fine_indices,
+        fine_triangle_count,
         internal_cookie
     });
     layout!(WeftStepStats {
