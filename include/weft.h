@@ -1482,8 +1482,8 @@ WeftResult weft_localize_prepare(const struct WeftWorld *world,
  * bytes); `bindings` is readable for `bindings_size` bytes; `output` is readable, and the
  * buffers it names are writable for their strided extents (`fine_indices` readable) and
  * overlap neither each other (interleaved normals aside, as `WeftLocalizeOutput.normals`
- * describes) nor the world's memory, the frames or the bindings; a non-NULL `out_detail` is writable. No other thread writes any of them
- * during the call.
+ * describes) nor the world's memory, the frames or the bindings; a non-NULL `out_detail` is
+ * writable. No other thread writes any of them during the call.
  */
 WeftResult weft_localize(const struct WeftWorld *world,
                          const void *frames,

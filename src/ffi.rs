@@ -2286,20 +2286,25 @@ fn mesh_key(world: &World<'_>, blob: &Blob<'_>) -> u64 {
     h.0
 }
 
+/// Bytes of a caller-owned block of `header` bytes and `n` records of `record` bytes, if it can
+/// be one Rust slice (at most `isize::MAX` bytes).
+fn block_bytes(header: usize, record: usize, n: usize) -> Option<usize> {
+    let b = n.checked_mul(record)?.checked_add(header)?;
+    (b <= isize::MAX as usize).then_some(b)
+}
+
 /// Bytes of a bindings block for `n` fine vertices.
 fn bind_bytes(n: usize) -> Option<usize> {
-    let b = n
-        .checked_mul(WEFT_BIND_VERTEX_SIZE)?
-        .checked_add(WEFT_BIND_HEADER_SIZE)?;
-    (b <= isize::MAX as usize).then_some(b)
+    block_bytes(WEFT_BIND_HEADER_SIZE, WEFT_BIND_VERTEX_SIZE, n)
 }
 
 /// Bytes of a frames block for `n` coarse vertices.
 fn frames_bytes(n: usize) -> Option<usize> {
-    let b = n
-        .checked_mul(WEFT_LOCALIZE_FRAME_SIZE)?
-        .checked_add(WEFT_LOCALIZE_FRAMES_HEADER_SIZE)?;
-    (b <= isize::MAX as usize).then_some(b)
+    block_bytes(
+        WEFT_LOCALIZE_FRAMES_HEADER_SIZE,
+        WEFT_LOCALIZE_FRAME_SIZE,
+        n,
+    )
 }
 
 /// A count as `u32` for an error detail (saturating).
@@ -2684,8 +2689,8 @@ pub unsafe extern "C" fn weft_localize_prepare(
 /// bytes); `bindings` is readable for `bindings_size` bytes; `output` is readable, and the
 /// buffers it names are writable for their strided extents (`fine_indices` readable) and
 /// overlap neither each other (interleaved normals aside, as `WeftLocalizeOutput.normals`
-/// describes) nor the world's memory, the frames or the bindings; a non-NULL `out_detail` is writable. No other thread writes any of them
-/// during the call.
+/// describes) nor the world's memory, the frames or the bindings; a non-NULL `out_detail` is
+/// writable. No other thread writes any of them during the call.
 #[no_mangle]
 pub unsafe extern "C" fn weft_localize(
     world: *const WeftWorld,
