@@ -222,22 +222,36 @@ pub fn add_forces(
 }
 
 /// The bending energy `½ xᵀ B Q x = -½ Σ_{i<j} Q_ij |x_i - x_j|²` (J), in the same
-/// difference form as [`add_forces`].
+/// difference form as [`add_forces`], clamped at 0 (it is a sum of terms of both signs whose
+/// exact total is ≥ 0; see [`energy_with_noise`]).
 pub fn energy(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> f64 {
+    energy_with_noise(p, off, x).0
+}
+
+/// [`energy`] and a bound on its `f32` round-off (J): each term `Q_ij |x_i − x_j|²` carries
+/// the rounding of `x_i − x_j` (`ε (|x_i| + |x_j|)`) and of the square. A flat cloth at rest
+/// has zero energy but terms of size `Q l²`, so without this bound the noise would read as
+/// energy changing by itself.
+pub fn energy_with_noise(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> (f64, f64) {
     let mut e = 0.0f64;
-    for i in 0..x.len().min(p.n()) {
+    let mut noise = 0.0f64;
+    let eps = f64::from(f32::EPSILON);
+    for (i, xi) in x.iter().enumerate().take(p.n()) {
         let Some(range) = p.row_range(i) else {
-            return e;
+            break;
         };
         for k in range {
             if let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) {
                 if let Some(xj) = x.get(j as usize) {
-                    e -= 0.5 * f64::from(q) * f64::from((*xj - x[i]).length_squared());
+                    let d = f64::from((*xj - *xi).length());
+                    let reach = f64::from(xi.abs().max_element() + xj.abs().max_element());
+                    e -= 0.5 * f64::from(q) * d * d;
+                    noise += f64::from(q.abs()) * d * eps * (2.0 * d + 2.0 * reach);
                 }
             }
         }
     }
-    e
+    (e.max(0.0), noise)
 }
 
 #[cfg(test)]

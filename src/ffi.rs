@@ -82,15 +82,8 @@ pub const WEFT_EFFECT_WARPING: u32 = 1 << 6;
 /// Effect bit: a cloth at rest goes to sleep (`sleep_velocity`, `sleep_frames`) and costs
 /// nothing until an edit or `weft_world_wake` wakes it.
 pub const WEFT_EFFECT_SLEEP: u32 = 1 << 7;
-/// Effect bit for localization (the fine pattern put back on the coarse cloth). Localization is
-/// the caller's to run (`weft_localize`); the bit is carried in the settings so one effect set
-/// describes a scene. Neither the step nor `weft_localize` reads it.
-pub const WEFT_EFFECT_LOCALIZE: u32 = 1 << 8;
-/// Effect bit for recomputed render normals (`WEFT_NORMALS_RECOMPUTED`), carried like
-/// `WEFT_EFFECT_LOCALIZE`: neither the step nor `weft_localize` reads it.
-pub const WEFT_EFFECT_NORMALS: u32 = 1 << 9;
 /// Every effect bit; any other bit set is `WEFT_RESULT_INVALID_SETTING`.
-pub const WEFT_EFFECT_ALL: u32 = (1 << 10) - 1;
+pub const WEFT_EFFECT_ALL: u32 = (1 << 8) - 1;
 
 /// `WeftShape.kind`: a half-space, solid where `dot(normal, x) < offset`.
 pub const WEFT_SHAPE_PLANE: u32 = 0;

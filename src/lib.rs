@@ -45,9 +45,12 @@ pub mod ffi;
 pub mod localize;
 pub mod membrane;
 pub mod mesh;
+pub mod normals;
 pub mod pcg;
-pub mod rotation;
+#[cfg(feature = "research")]
+pub mod research;
 pub mod sparse;
+mod step;
 pub mod strided;
 pub mod world;
 

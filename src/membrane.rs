@@ -1,8 +1,9 @@
 //! Linear (P1) membrane triangles: the in-plane finite element shared by the cell problem (§4)
 //! and the coarse simulation (§5).
 //!
-//! Everything here is computed once (at homogenization or at world init), so it works in `f64`;
-//! the runtime converts the resulting 3×3 blocks to `f32`.
+//! Two halves: the `f64` element (gradients, `B`, `K_e`, stress forces) computed once, at
+//! homogenization or at world init; and the `f32` runtime element ([`Element`]), whose corotated
+//! forces, energy and stiffness blocks are re-assembled every substep.
 //!
 //! Conventions: rest shape in material space `(u, v)` (metres); strain `e = B d` with Voigt order
 //! `[e11, e22, 2 e12]` (Eq. 1–3, the operator of Eq. 2 / Eq. 11); stress `s = C e` in N/m.
@@ -355,10 +356,17 @@ impl Element {
     /// sign).
     #[inline]
     pub fn corner_force(&self, a: usize, s: [f32; 3]) -> [f32; 2] {
+        self.corner_force_spun(a, s, 0.0)
+    }
+
+    /// `A Q ∇N_a` with `Q = τ + k J` (see [`spin_stress`]): corner `a`'s share of the in-frame
+    /// first Piola–Kirchhoff stress, i.e. the corotated force with the opposite sign.
+    #[inline]
+    pub fn corner_force_spun(&self, a: usize, s: [f32; 3], k: f32) -> [f32; 2] {
         let (gu, gv) = (self.grad[2 * a], self.grad[2 * a + 1]);
         [
-            self.area * (gu * s[0] + gv * s[2]),
-            self.area * (gv * s[1] + gu * s[2]),
+            self.area * (gu * s[0] + gv * (s[2] + k)),
+            self.area * (gv * s[1] + gu * (s[2] - k)),
         ]
     }
 
@@ -418,6 +426,38 @@ pub fn corotated_frame(grad: &[f32; 6], x: [Vec3A; 3], fallback: Vec3A) -> (Vec3
     (b1 * c + b2 * s, b2 * c - b1 * s)
 }
 
+/// The rotation term of the corotated force, for any SPD `C`.
+///
+/// The corotated energy is `Ψ = ½ A eᵀ C e` with `e` the Biot strain of the stretch
+/// `S = R_eᵀ F` (`F` the 3×2 deformation gradient, `R_e` its polar rotation, `S` symmetric:
+/// `e = [S11 − 1, S22 − 1, 2 S12]`). Its exact gradient is `∂Ψ/∂x_a = A R_e Q ∇N_a` with the
+/// in-frame first Piola–Kirchhoff stress
+///
+/// ```text
+///     Q = τ + (S τ − τ S) / tr S,      τ = [[σ11, σ12], [σ12, σ22]],  σ = C e
+/// ```
+///
+/// (differentiate `S² = FᵀF`: `S dS + dS S = dFᵀF + FᵀdF`, solve that 2×2 Sylvester equation in
+/// closed form with Cayley–Hamilton, `S² = tr S · S − det S · I`; `det S` cancels). The
+/// commutator is antisymmetric, `k J` with `J = [[0, 1], [−1, 0]]`, and this returns `k`.
+/// It vanishes when `τ` commutes with `S` — always for isotropic `C`, which is why the classic
+/// corotated force `R_e τ ∇N_a` (Etzmuß et al. 2003) is exact there and only there. Dropping it
+/// for an anisotropic `C^H` gives forces that do work round closed loops and carry a net
+/// torque (a free cloth spins up by itself). In the small-strain limit `k = O(|e|²)`, so the
+/// linear response is still exactly `C^H`. `tr S > 0` unless the triangle has collapsed to a
+/// point, where the term is dropped.
+#[inline]
+pub fn spin_stress(e: [f32; 3], s: [f32; 3]) -> f32 {
+    // S = I + [[e0, e2/2], [e2/2, e1]]; (Sτ − τS)_12 = τ12 (S11 − S22) − S12 (τ11 − τ22).
+    let trace = 2.0 + e[0] + e[1];
+    let c = s[2] * (e[0] - e[1]) - 0.5 * e[2] * (s[0] - s[1]);
+    if trace > 1e-6 {
+        c / trace
+    } else {
+        0.0
+    }
+}
+
 /// Why the per-substep membrane assembly refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AssemblyError {
@@ -426,14 +466,18 @@ pub enum AssemblyError {
     MissingBlock,
 }
 
-/// Corotated linear FEM (Etzmuß et al. 2003; the warped stiffness of §5.2 per element): for
-/// every triangle with frame `R_e = [r0 r1]`, the elastic force
-/// `f_a = -R_e Σ_b K_ab (R_eᵀ (x_b − x_0) − (X_b − X_0))` is added to `force`, and the
-/// rotated stiffness `R_e K_ab R_eᵀ` is added to the 3×3 blocks (`diag`, `off` at the
-/// triangle's `slots`, which hold the block index of its pairs (0,1), (0,2), (1,2), with
-/// [`TRANSPOSED`] set when the pair is stored as (j, i)). Element forces sum to zero, so linear
-/// momentum is conserved exactly, and a rigid motion gives exactly zero force.
-/// `warping = false` is plain linear FEM (`R_e = I`).
+/// Corotated membrane (the warped stiffness of §5.2 per element, Etzmuß et al. 2003): for every
+/// triangle with frame `R_e = [r0 r1]` (the polar rotation of its deformation gradient), the
+/// elastic force `f_a = −A R_e Q ∇N_a`, the exact gradient of the energy `½ A eᵀ C e` of the
+/// Biot strain `e` (with the rotation term of [`spin_stress`], so it is conservative and
+/// torque-free for any SPD `C`), is added to `force`. The Jacobian added to the 3×3 blocks
+/// (`diag`, `off` at the triangle's `slots`, which hold the block index of its pairs (0,1),
+/// (0,2), (1,2), with [`TRANSPOSED`] set when the pair is stored as (j, i)) is the documented
+/// SPD approximation `R_e K_ab R_eᵀ + A ∇N_aᵀ σ⁺ ∇N_b I`: the rotated linear stiffness (exact
+/// in the small-strain limit) plus the tensile geometric stiffness; the derivative of `R_e`
+/// and of the rotation term are left out (they are indefinite under compression). Element
+/// forces sum to zero (linear momentum is conserved exactly) and a rigid motion gives exactly
+/// zero force. `warping = false` is plain linear FEM (`R_e = I`).
 #[allow(clippy::too_many_arguments)]
 pub fn assemble_corotated(
     triangles: &[[u32; 3]],
@@ -469,8 +513,15 @@ pub fn assemble_corotated(
         let (r0, r1, d) = local_displacement(e, idx, rest, x, normals, warping);
         let strain = e.strain(&d);
         let stress = e.stress(strain);
+        // f_a = −A R_e Q ∇N_a: the exact gradient of the corotated energy (see `spin_stress`);
+        // linear FEM (no warping) has no rotation term.
+        let spin = if warping {
+            spin_stress(strain, stress)
+        } else {
+            0.0
+        };
         for (a, &i) in idx.iter().enumerate() {
-            let s = e.corner_force(a, stress);
+            let s = e.corner_force_spun(a, stress, spin);
             force[i] -= r0 * s[0] + r1 * s[1];
         }
         energy += 0.5
@@ -640,6 +691,265 @@ mod runtime_tests {
         assert!(r[0] <= 1e-6 && r[1] <= 1e-6 && det(r) > -1e-5);
     }
 
+    /// A small deterministic generator (tests only).
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.next()
+        }
+    }
+
+    /// `C` of an orthotropic material with stiffnesses `(c1, c2, shear)` along axes turned by
+    /// `theta` in the (u, v) plane: `Tᵀ C T` with `T` the engineering-strain rotation.
+    fn rotated_orthotropic(c1: f64, c2: f64, c12: f64, shear: f64, theta: f64) -> Voigt {
+        let local = [[c1, c12, 0.0], [c12, c2, 0.0], [0.0, 0.0, shear]];
+        let (c, s) = (theta.cos(), theta.sin());
+        let t = [
+            [c * c, s * s, c * s],
+            [s * s, c * c, -c * s],
+            [-2.0 * c * s, 2.0 * c * s, c * c - s * s],
+        ];
+        let mut out = [[0.0; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                for k in 0..3 {
+                    for l in 0..3 {
+                        out[i][j] += t[k][i] * local[k][l] * t[l][j];
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// One triangle with rest corners `uv`, or a fan of them: the arrays a world would hold.
+    struct Patch {
+        triangles: Vec<[u32; 3]>,
+        elements: Vec<Element>,
+        slots: Vec<[u32; 3]>,
+        rest: Vec<Vec3A>,
+        off: usize,
+    }
+
+    impl Patch {
+        /// Triangles over the given rest points, each with its own slots (no shared pattern is
+        /// needed for forces and energy).
+        fn new(uv: &[[f64; 2]], triangles: &[[u32; 3]], c: &Voigt) -> Patch {
+            let elements = triangles
+                .iter()
+                .map(|t| Element::new(t.map(|i| uv[i as usize]), c).unwrap())
+                .collect();
+            let slots = (0..triangles.len() as u32)
+                .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+                .collect();
+            Patch {
+                triangles: triangles.to_vec(),
+                elements,
+                slots,
+                rest: uv
+                    .iter()
+                    .map(|p| Vec3A::new(p[0] as f32, p[1] as f32, 0.0))
+                    .collect(),
+                off: 3 * triangles.len(),
+            }
+        }
+        fn forces(&self, x: &[Vec3A]) -> Vec<Vec3A> {
+            let n = x.len();
+            let (mut diag, mut off) = (vec![Mat3A::ZERO; n], vec![Mat3A::ZERO; self.off]);
+            let mut f = vec![Vec3A::ZERO; n];
+            let normals = vec![Vec3A::Z; n];
+            assemble_corotated(
+                &self.triangles,
+                &self.elements,
+                &self.slots,
+                &self.rest,
+                x,
+                &normals,
+                true,
+                &mut diag,
+                &mut off,
+                &mut f,
+            )
+            .unwrap();
+            f
+        }
+        fn energy(&self, x: &[Vec3A]) -> f64 {
+            let normals = vec![Vec3A::Z; x.len()];
+            elastic_energy(
+                &self.triangles,
+                &self.elements,
+                &self.rest,
+                x,
+                &normals,
+                true,
+            )
+            .unwrap()
+        }
+    }
+
+    /// The issue's configuration: stretched 1.3 × 0.8 with shear 0.25, then rotated in 3D.
+    fn deformed(rest: &[Vec3A], q: glam::Quat) -> Vec<Vec3A> {
+        rest.iter()
+            .map(|p| {
+                let d = glam::Vec3::new(1.3 * p.x + 0.25 * p.y, 0.8 * p.y, 0.0);
+                Vec3A::from(q * d)
+            })
+            .collect()
+    }
+
+    fn materials(rng: &mut Lcg) -> Vec<Voigt> {
+        let mut cs = vec![
+            isotropic(500.0, 0.3),
+            [[1000.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
+            rotated_orthotropic(1e4, 1.0, 0.5, 1.0, 0.6),
+            rotated_orthotropic(1.0, 1e4, 0.0, 3.0, -1.1),
+        ];
+        for _ in 0..6 {
+            // random SPD: L Lᵀ with anisotropy up to 1e4, on random axes
+            let l: [[f64; 3]; 3] =
+                core::array::from_fn(|_| core::array::from_fn(|_| rng.range(-1.0, 1.0)));
+            let mut c = [[0.0; 3]; 3];
+            for i in 0..3 {
+                for j in 0..3 {
+                    c[i][j] = (0..3).map(|k| l[i][k] * l[j][k]).sum::<f64>() * 100.0;
+                }
+                c[i][i] += 1.0;
+            }
+            let c = rotated_orthotropic(
+                c[0][0] * rng.range(1.0, 1e4),
+                c[1][1],
+                0.0,
+                c[2][2],
+                rng.range(-3.0, 3.0),
+            );
+            assert!(is_spd(&c));
+            cs.push(c);
+        }
+        cs
+    }
+
+    #[test]
+    fn corotated_force_is_the_energy_gradient_for_any_spd_c() {
+        let mut rng = Lcg(7);
+        let uv = [[0.0, 0.0], [0.2, 0.03], [0.05, 0.17]];
+        for c in materials(&mut rng) {
+            let patch = Patch::new(&uv, &[[0, 1, 2]], &c);
+            for trial in 0..4 {
+                let axis = glam::Vec3::new(
+                    rng.range(-1.0, 1.0) as f32,
+                    rng.range(-1.0, 1.0) as f32,
+                    rng.range(-1.0, 1.0) as f32,
+                )
+                .normalize();
+                let q = glam::Quat::from_axis_angle(axis, trial as f32 * 1.3);
+                let x = deformed(&patch.rest, q);
+                let f = patch.forces(&x);
+                let delta = 2e-4f32;
+                let mut err = 0.0f64;
+                let mut norm = 0.0f64;
+                for i in 0..3 {
+                    for k in 0..3 {
+                        let mut xp = x.clone();
+                        let mut xm = x.clone();
+                        xp[i][k] += delta;
+                        xm[i][k] -= delta;
+                        let fd = -(patch.energy(&xp) - patch.energy(&xm))
+                            / f64::from(2.0 * delta);
+                        err += (fd - f64::from(f[i][k])).powi(2);
+                        norm += fd * fd;
+                    }
+                }
+                let rel = (err / norm).sqrt();
+                assert!(rel < 2e-3, "C = {c:?}, trial {trial}: force vs −∂E/∂x off by {rel}");
+            }
+        }
+    }
+
+    #[test]
+    fn corotated_forces_do_no_work_round_closed_loops() {
+        let mut rng = Lcg(11);
+        let uv = [[0.0, 0.0], [0.2, 0.03], [0.05, 0.17]];
+        for c in materials(&mut rng) {
+            let patch = Patch::new(&uv, &[[0, 1, 2]], &c);
+            let q = glam::Quat::from_axis_angle(glam::Vec3::new(0.2, 1.0, -0.4).normalize(), 0.9);
+            let x0 = deformed(&patch.rest, q);
+            // corner 2 goes round a 1 cm circle in a plane oblique to the triangle
+            let (a, b) = (
+                Vec3A::new(0.01, 0.0, 0.004),
+                Vec3A::new(0.0, 0.008, 0.006),
+            );
+            let steps = 400;
+            let mut work = 0.0f64;
+            let at = |s: f64| {
+                let mut x = x0.clone();
+                let (sin, cos) = (2.0 * core::f64::consts::PI * s).sin_cos();
+                x[2] += a * (cos as f32 - 1.0) + b * sin as f32;
+                x
+            };
+            for k in 0..steps {
+                // midpoint rule on each segment: W = Σ f(mid) · Δx
+                let (s0, s1) = (k as f64 / steps as f64, (k + 1) as f64 / steps as f64);
+                let (p0, p1, pm) = (at(s0), at(s1), at(0.5 * (s0 + s1)));
+                let f = patch.forces(&pm);
+                work += f64::from(f[2].dot(p1[2] - p0[2]));
+            }
+            let e = patch.energy(&x0);
+            assert!(
+                work.abs() < 2e-4 * e,
+                "C = {c:?}: a closed loop does {work} J of work (energy {e} J)"
+            );
+        }
+    }
+
+    #[test]
+    fn corotated_forces_carry_no_net_force_or_torque() {
+        let mut rng = Lcg(3);
+        // a fan of 6 triangles round a centre vertex, crumpled at random in 3D
+        let mut uv = vec![[0.0, 0.0]];
+        for k in 0..6 {
+            let a = k as f64 * core::f64::consts::PI / 3.0;
+            uv.push([0.1 * a.cos(), 0.1 * a.sin()]);
+        }
+        let tris: Vec<[u32; 3]> = (0..6u32).map(|k| [0, 1 + k, 1 + (k + 1) % 6]).collect();
+        for c in materials(&mut rng) {
+            let patch = Patch::new(&uv, &tris, &c);
+            for _ in 0..4 {
+                let x: Vec<Vec3A> = patch
+                    .rest
+                    .iter()
+                    .map(|p| {
+                        *p * rng.range(0.7, 1.4) as f32
+                            + Vec3A::new(
+                                rng.range(-0.03, 0.03) as f32,
+                                rng.range(-0.03, 0.03) as f32,
+                                rng.range(-0.05, 0.05) as f32,
+                            )
+                            + Vec3A::new(3.0, -2.0, 1.0)
+                    })
+                    .collect();
+                let f = patch.forces(&x);
+                let centre = x.iter().copied().sum::<Vec3A>() / x.len() as f32;
+                let (mut net, mut torque, mut scale) = (Vec3A::ZERO, Vec3A::ZERO, 0.0f32);
+                for (p, fi) in x.iter().zip(&f) {
+                    net += *fi;
+                    torque += (*p - centre).cross(*fi);
+                    scale += (*p - centre).length() * fi.length();
+                }
+                let fmax = f.iter().map(|v| v.length()).fold(0.0, f32::max);
+                assert!(net.length() < 1e-5 * fmax * 7.0, "net force {net} (C = {c:?})");
+                assert!(torque.length() < 1e-5 * scale, "net torque {torque} of {scale} (C = {c:?})");
+            }
+        }
+    }
+
     #[test]
     fn packed_blocks_match_the_element_stiffness() {
         let uv = [[0.0, 0.0], [0.3, 0.05], [0.1, 0.4]];
@@ -657,44 +967,4 @@ mod runtime_tests {
             }
         }
     }
-}
-
-/// The paper's per-node warped force (Eq. 17), `f_i = -R_i Σ_j K_ij (R_iᵀ x_j − x0_j)`, on the
-/// unrotated assembled `K` (only its off-diagonal blocks are needed: rows of `K` sum to zero,
-/// so the sum is taken over edge vectors `x_j − x_i`, which also keeps f32 cancellation small).
-/// Overwrites `force`.
-pub fn node_warped_force(
-    p: &crate::sparse::Pattern<'_>,
-    k_off: &[Mat3A],
-    rot: &[glam::Quat],
-    rest: &[Vec3A],
-    x: &[Vec3A],
-    force: &mut [Vec3A],
-) -> Result<(), AssemblyError> {
-    let n = x.len();
-    if rot.len() != n || rest.len() != n || force.len() != n || p.n() != n || k_off.len() < p.nnz()
-    {
-        return Err(AssemblyError::LengthMismatch);
-    }
-    force.fill(Vec3A::ZERO);
-    for i in 0..n {
-        let Some(range) = p.row_range(i) else {
-            return Err(AssemblyError::LengthMismatch);
-        };
-        let (ri_t, xi, x0i) = (rot[i].inverse(), x[i], rest[i]);
-        for k in range {
-            let (Some(&j), Some(&kij)) = (p.cols.get(k), k_off.get(k)) else {
-                return Err(AssemblyError::LengthMismatch);
-            };
-            let j = j as usize;
-            let (xj, x0j) = (x[j], rest[j]);
-            // block (i, j) acts in node i's frame, its transpose (j, i) in node j's
-            force[i] += kij * (ri_t * (xj - xi) - (x0j - x0i));
-            force[j] += kij.transpose() * (rot[j].inverse() * (xi - xj) - (x0i - x0j));
-        }
-    }
-    for (f, r) in force.iter_mut().zip(rot) {
-        *f = -(*r * *f);
-    }
-    Ok(())
 }

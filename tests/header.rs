@@ -154,8 +154,6 @@ fn effect_bits_match_the_kernel() {
         (WEFT_EFFECT_WIND, effects::WIND),
         (WEFT_EFFECT_WARPING, effects::WARPING),
         (WEFT_EFFECT_SLEEP, effects::SLEEP),
-        (WEFT_EFFECT_LOCALIZE, effects::LOCALIZE),
-        (WEFT_EFFECT_NORMALS, effects::NORMALS),
         (WEFT_EFFECT_ALL, effects::ALL),
     ];
     for (c, k) in pairs {

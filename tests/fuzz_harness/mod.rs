@@ -399,7 +399,9 @@ fn edit_settings(input: &mut Input<'_>, mut s: Settings) -> Settings {
             8 => s.tolerance = input.f32_or(1e-6),
             // A caller asking for 4 billion iterations gets them; the harness stays quick.
             9 => s.max_iterations = [0, 1, 5, 50, 1000][usize::from(input.byte() % 5)],
-            10 => s.per_node_warping = input.byte() % 2 == 1,
+            // Per-node warping is a research option: without the feature the byte still
+            // counts (the corpus keeps its meaning) but the world stays per-element.
+            10 => s.per_node_warping = input.byte() % 2 == 1 && cfg!(feature = "research"),
             11 => s.rotation_iterations = u32::from(input.byte() % 32),
             12 => s.sleep_velocity = input.f32_or(0.5),
             13 => s.sleep_frames = [0, 1, 2, u32::MAX][usize::from(input.byte() % 4)],

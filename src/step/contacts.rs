@@ -1,0 +1,191 @@
+//! Stages 2 and 5 of a substep: pins and contacts, in one place.
+//!
+//! Before the solve ([`constrain`]): each pin and each contact becomes a per-vertex filter of
+//! the modified PCG (Baraff & Witkin §5.3: `S = 0` for a pin, `S = I − n nᵀ` for a contact) and
+//! a prescribed part of `Δv`. After it ([`resolve`]): Coulomb friction for the contacts the
+//! solve held, projection out of every collider, pins put exactly on their targets. In
+//! between, [`constraint_work`] measures what moving pins and colliders put into the cloth.
+
+use glam::{Mat3A, Vec3A};
+
+use super::system::outer;
+use super::Substep;
+use crate::collide;
+use crate::mesh;
+use crate::world::{effects, Arrays, Counts, Settings};
+
+fn collide_on(c: &Counts, st: &Settings) -> bool {
+    st.effects & effects::COLLISION != 0 && c.colliders > 0
+}
+
+fn pins_on(c: &Counts, st: &Settings) -> bool {
+    st.effects & effects::PINS != 0 && c.pins > 0
+}
+
+/// Sets the PCG filter and the prescribed velocity changes; returns whether any vertex is
+/// constrained (without constraints the solve runs its filter-free path).
+pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> bool {
+    let (n, h) = (c.n, sub.h);
+    let collide = collide_on(c, st);
+    let pins = pins_on(c, st);
+    if !(collide || pins) {
+        return false;
+    }
+    let mut constrained = false;
+    a.filter[..n].fill(Mat3A::IDENTITY);
+    // Contact slop: a vertex predicted to end within this of its offset surface is held too.
+    // A cloth resting on a collider sits exactly on it after each substep; with a strict test
+    // its vertices flicker in and out of the contact set, and the ones let go fall in for a
+    // substep and are projected back against the membrane's tension, which puts energy in.
+    let fall = if st.effects & effects::GRAVITY != 0 {
+        Vec3A::from(st.gravity).length() * h * h
+    } else {
+        0.0
+    };
+    let slop = |thickness: f32| 0.1 * thickness + fall;
+    if collide {
+        for i in 0..n {
+            a.contact_collider[i] = mesh::NONE;
+            let (xi, vi) = (a.x[i], a.v[i]);
+            let mut deepest = f32::INFINITY;
+            for (k, col) in a.colliders[..c.colliders].iter().enumerate() {
+                let shape = col.previous.lerp(&col.shape, sub.t);
+                let before = col.previous.lerp(&col.shape, sub.t0);
+                let prox = shape.proximity(xi);
+                let vs = shape.surface_velocity(&before, xi, h);
+                let vn_rel = (vi - vs).dot(prox.normal);
+                // predicted distance at the end of the substep
+                let predicted = prox.distance + h * vn_rel;
+                if predicted < col.thickness + slop(col.thickness) && prox.distance - col.thickness < deepest {
+                    deepest = prox.distance - col.thickness;
+                    let nrm = prox.normal;
+                    // end the substep on the offset surface, moving with the collider
+                    let target_vn = vs.dot(nrm) + (col.thickness - prox.distance) / h;
+                    let dvn = target_vn - vi.dot(nrm);
+                    let filter = Mat3A::IDENTITY - outer(nrm, nrm);
+                    a.filter[i] = filter;
+                    a.dv[i] = filter * a.dv[i] + nrm * dvn;
+                    // the push the contact supplies beyond what the forces alone would do
+                    let free_dvn = a.rhs[i].dot(nrm) / a.mass[i].max(f32::MIN_POSITIVE);
+                    a.contact_push[i] = nrm * (dvn - free_dvn).max(0.0);
+                    a.contact_collider[i] = k as u32;
+                    constrained = true;
+                }
+            }
+        }
+    }
+    if pins {
+        for p in 0..c.pins {
+            let i = a.pin_vertex[p] as usize;
+            let target = a.pin_previous[p].lerp(a.pin_target[p], sub.t);
+            // land exactly on the target at the end of the substep
+            a.dv[i] = (target - a.x[i]) / h - a.v[i];
+            a.filter[i] = Mat3A::ZERO;
+            constrained = true;
+        }
+    }
+    constrained
+}
+
+/// The work (J) moving pins and colliders did on the cloth during the solve: the constraint
+/// impulse `J = (I − S)(A Δv − rhs)` (`a.w_q` holds `A Δv`, see `system::solve`) times the
+/// velocity of what holds the vertex (a pin's target, a collider's surface). Still pins and
+/// colliders do no work: their impulses only redirect motion.
+pub(crate) fn constraint_work(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> f64 {
+    let mut work = 0.0f64;
+    if pins_on(c, st) {
+        for p in 0..c.pins {
+            let i = a.pin_vertex[p] as usize;
+            let moved = a.pin_previous[p].lerp(a.pin_target[p], sub.t)
+                - a.pin_previous[p].lerp(a.pin_target[p], sub.t0);
+            if moved != Vec3A::ZERO {
+                let impulse = a.w_q[i] - a.rhs[i];
+                work += f64::from(impulse.dot(moved / sub.h));
+            }
+        }
+    }
+    if collide_on(c, st) {
+        for i in 0..c.n {
+            let Some(col) = a.colliders[..c.colliders].get(a.contact_collider[i] as usize) else {
+                continue;
+            };
+            if col.previous == col.shape || a.pin_of[i] != mesh::NONE {
+                continue;
+            }
+            let shape = col.previous.lerp(&col.shape, sub.t);
+            let before = col.previous.lerp(&col.shape, sub.t0);
+            let vs = shape.surface_velocity(&before, a.x[i], sub.h);
+            let held = Mat3A::IDENTITY - a.filter[i];
+            work += f64::from((held * (a.w_q[i] - a.rhs[i])).dot(vs));
+        }
+    }
+    work
+}
+
+/// After `x += h v`: friction for held contacts, projection out of every collider, pins
+/// exactly on target. Returns the vertices touching a collider and the work (J) moving
+/// colliders did through friction and projection.
+pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> (u32, f64) {
+    let (n, h) = (c.n, sub.h);
+    let pins = pins_on(c, st);
+    let mut contacts = 0;
+    let mut work = 0.0f64;
+    if collide_on(c, st) {
+        for i in 0..n {
+            if pins && a.pin_of[i] != mesh::NONE {
+                continue;
+            }
+            let mut touched = false;
+            let v_before = a.v[i];
+            let mut vs_held = Vec3A::ZERO;
+            // Coulomb friction for the contacts the solve held: the tangential velocity
+            // relative to the surface shrinks by at most μ times the normal impulse.
+            if let Some(col) = a.colliders[..c.colliders].get(a.contact_collider[i] as usize) {
+                let shape = col.previous.lerp(&col.shape, sub.t);
+                let before = col.previous.lerp(&col.shape, sub.t0);
+                let vs = shape.surface_velocity(&before, a.x[i], h);
+                let push = a.contact_push[i];
+                let nrm = shape.proximity(a.x[i]).normal;
+                let rel = a.v[i] - vs;
+                let vt = rel - nrm * rel.dot(nrm);
+                let vt_len = vt.length();
+                if vt_len > 0.0 {
+                    let scale = (1.0 - col.friction * push.length() / vt_len).max(0.0);
+                    a.v[i] -= vt * (1.0 - scale);
+                }
+                vs_held = vs;
+                touched = true;
+            }
+            // Projection: nothing ends the substep deeper than `thickness`.
+            for col in &a.colliders[..c.colliders] {
+                let shape = col.previous.lerp(&col.shape, sub.t);
+                let before = col.previous.lerp(&col.shape, sub.t0);
+                let vs = shape.surface_velocity(&before, a.x[i], h);
+                let hit = collide::resolve(
+                    &shape,
+                    vs,
+                    col.thickness,
+                    col.friction,
+                    &mut a.x[i],
+                    &mut a.v[i],
+                );
+                if hit && vs != Vec3A::ZERO {
+                    vs_held = vs;
+                }
+                touched |= hit;
+            }
+            if touched && vs_held != Vec3A::ZERO {
+                // a moving surface does work m Δv · v_s through what it changed
+                work += f64::from(a.mass[i] * (a.v[i] - v_before).dot(vs_held));
+            }
+            contacts += touched as u32;
+        }
+    }
+    if pins {
+        for p in 0..c.pins {
+            let i = a.pin_vertex[p] as usize;
+            a.x[i] = a.pin_previous[p].lerp(a.pin_target[p], sub.t);
+        }
+    }
+    (contacts, work)
+}

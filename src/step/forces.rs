@@ -1,0 +1,153 @@
+//! Stage 1 of a substep: the forces and the right-hand side of the linearized implicit Euler
+//! system (Baraff & Witkin 1998, Eq. 18 discretized):
+//!
+//! ```text
+//!     [(1 + hα) M + (hβ + h²) K_w] Δv = h (f − (β + h) K_w v)
+//! ```
+//!
+//! with `f` the corotated membrane force (`membrane.rs`), hinge bending `−B Q x`
+//! (`bending.rs`), gravity, wind and Rayleigh damping `D = αM + βK_w`. The membrane Jacobian
+//! `K_w` is assembled into the world's 3×3 blocks here; [`super::system`] folds mass, bending
+//! and drag into them.
+
+use glam::Vec3A;
+
+use crate::bending;
+use crate::membrane;
+use crate::normals;
+use crate::sparse::{self, Pattern};
+use crate::world::{effects, Arrays, Counts, Settings, StepError};
+
+/// Fills `a.rhs` with `h (f − (β + h) K_w v)`, `a.force` with the elastic force and
+/// `a.k_diag`/`a.k_off` with the membrane Jacobian `K_w`. Returns the elastic energy (J) of
+/// the current positions, which the assembly computes anyway.
+pub(crate) fn accumulate(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    h: f32,
+) -> Result<f64, StepError> {
+    let n = c.n;
+    let eff = st.effects;
+    let warping = eff & effects::WARPING != 0;
+    let per_node = warping && st.per_node_warping;
+    let bending_on = eff & effects::BENDING != 0;
+    let (alpha, beta) = if eff & effects::DAMPING != 0 {
+        (st.damping_mass, st.damping_stiffness)
+    } else {
+        (0.0, 0.0)
+    };
+    if per_node {
+        #[cfg(feature = "research")]
+        crate::research::per_node::update_rotations(a, c, st.rotation_iterations);
+    } else if warping || eff & effects::WIND != 0 {
+        // The fallback frame normal of collapsed triangles, and the wind's direction.
+        normals::vertex_normals(
+            &a.triangles[..c.nt],
+            &a.tri_sign[..c.nt],
+            &a.x[..n],
+            &mut a.normals[..n],
+        )
+        .map_err(|_| StepError::SolverBreakdown)?;
+    }
+    // Membrane: corotated elements (or plain linear FEM; or, for per-node warping, the
+    // unrotated K that Eq. 17 rotates node by node).
+    let elastic = membrane::assemble_corotated(
+        &a.triangles[..c.nt],
+        &a.elements[..c.nt],
+        &a.slots[..c.nt],
+        &a.rest[..n],
+        &a.x[..n],
+        &a.normals[..n],
+        warping && !per_node,
+        &mut a.k_diag[..n],
+        &mut a.k_off[..c.nnz],
+        &mut a.force[..n],
+    )
+    .map_err(|_| StepError::SolverBreakdown)?;
+    // Implicit and Rayleigh terms: rhs = f − (β + h) K_w v  (K_w = R K Rᵀ + B Q).
+    let c_kv = beta + h;
+    if per_node {
+        #[cfg(feature = "research")]
+        crate::research::per_node::elastic_rhs(a, c, bending_on, c_kv)?;
+    } else {
+        elastic_rhs(a, c, bending_on, c_kv)?;
+    }
+    let pattern = Pattern {
+        row_start: &a.row_start[..n + 1],
+        cols: &a.cols[..c.nnz],
+    };
+    let (x, v) = (&a.x[..n], &a.v[..n]);
+    let rhs = &mut a.rhs[..n];
+    if bending_on {
+        // Bending force −B Q x (Q annihilates the flat rest shape, so no rest term).
+        bending::add_forces(&pattern, &a.q_off[..c.nnz], x, rhs)
+            .map_err(|_| StepError::SolverBreakdown)?;
+    }
+    let gravity = Vec3A::from(st.gravity);
+    let gravity_on = eff & effects::GRAVITY != 0;
+    let wind_on = eff & effects::WIND != 0 && st.drag > 0.0;
+    let wind = Vec3A::from(st.wind);
+    for (((r, &m), vi), (nrm, &area)) in rhs
+        .iter_mut()
+        .zip(&a.mass[..n])
+        .zip(v)
+        .zip(a.normals[..n].iter().zip(&a.area[..n]))
+    {
+        let mut f = *r;
+        if gravity_on {
+            f += gravity * m;
+        }
+        if alpha > 0.0 {
+            f -= *vi * (alpha * m);
+        }
+        if wind_on {
+            // Drag on the velocity relative to the air, along the normal; its velocity
+            // derivative −drag·area·n nᵀ is in the system matrix (implicit, any drag is stable).
+            f += *nrm * (st.drag * area * (wind - *vi).dot(*nrm));
+        }
+        *r = f * h;
+    }
+    Ok(elastic)
+}
+
+/// `rhs = f − c_kv (K_w + B Q) v` with the element-assembled `K_w` (`w_r` holds the product).
+fn elastic_rhs(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    bending_on: bool,
+    c_kv: f32,
+) -> Result<(), StepError> {
+    let n = c.n;
+    let pattern = Pattern {
+        row_start: &a.row_start[..n + 1],
+        cols: &a.cols[..c.nnz],
+    };
+    let (v, kv) = (&a.v[..n], &mut a.w_r[..n]);
+    sparse::mul(&a.k_diag[..n], &pattern, &a.k_off[..c.nnz], v, kv)
+        .map_err(|_| StepError::SolverBreakdown)?;
+    if bending_on {
+        sparse::mul_scalar_add(&a.q_diag[..n], &pattern, &a.q_off[..c.nnz], 1.0, v, kv)
+            .map_err(|_| StepError::SolverBreakdown)?;
+    }
+    for ((r, f), kv) in a.rhs[..n].iter_mut().zip(&a.force[..n]).zip(kv.iter()) {
+        *r = *f - *kv * c_kv;
+    }
+    Ok(())
+}
+
+/// The work (J) the moving air does on the cloth in a substep of length `h` ending with
+/// velocities `a.v`: the wind-driven part `drag·area·(w·n) n` of the drag force. The rest of
+/// the drag, `−drag·area·(v·n) n`, only dissipates.
+pub(crate) fn wind_work(a: &Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> f64 {
+    if st.effects & effects::WIND == 0 || st.drag <= 0.0 {
+        return 0.0;
+    }
+    let wind = Vec3A::from(st.wind);
+    let n = c.n;
+    let mut work = 0.0f64;
+    for ((nrm, &area), vi) in a.normals[..n].iter().zip(&a.area[..n]).zip(&a.v[..n]) {
+        work += f64::from(st.drag * area * wind.dot(*nrm) * nrm.dot(*vi) * h);
+    }
+    work
+}

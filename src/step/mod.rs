@@ -1,0 +1,82 @@
+//! One substep of the coarse cloth, as stage functions over the world's arrays (in the spirit
+//! of Box2D v3's solver stages). [`crate::world::World::step_dt`] calls [`substep`] for each
+//! substep and then checks the step's energy balance ([`monitor`]).
+//!
+//! 1. [`forces`]: frames, membrane forces and Jacobian, bending, gravity, wind, damping → rhs;
+//! 2. [`contacts`]: pins and contacts into the PCG filter and the prescribed `Δv`;
+//! 3. [`system`]: fold mass, bending and drag into the blocks, precondition, solve;
+//! 4. integrate `v += Δv`, `x += h v`;
+//! 5. [`contacts`]: friction, projection, pins exactly on target.
+
+pub(crate) mod contacts;
+pub(crate) mod forces;
+pub(crate) mod monitor;
+pub(crate) mod system;
+
+use glam::Vec3A;
+
+use crate::pcg;
+use crate::world::{Arrays, Counts, Settings, StepError};
+
+/// Where a substep lies in its step: its length `h` (s), and the fractions of the step at
+/// which it starts (`t0`) and ends (`t`); pins and colliders are swept linearly across a step.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Substep {
+    pub h: f32,
+    pub t0: f32,
+    pub t: f32,
+}
+
+/// What a substep did.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Report {
+    pub solve: pcg::Stats,
+    /// Vertices touching a collider at its end.
+    pub contacts: u32,
+    /// Work (J) done on the cloth from outside: moving pins and colliders, wind.
+    pub input: f64,
+}
+
+/// One linearized implicit Euler substep.
+pub(crate) fn substep(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<Report, StepError> {
+    forces::accumulate(a, c, st, sub.h)?;
+    let constrained = contacts::constrain(a, c, st, sub);
+    let solve = system::solve(a, c, st, sub.h, constrained)?;
+    let mut input = if constrained {
+        contacts::constraint_work(a, c, st, sub)
+    } else {
+        0.0
+    };
+    integrate(a, c, sub.h, solve.converged);
+    input += forces::wind_work(a, c, st, sub.h);
+    let (touching, work) = contacts::resolve(a, c, st, sub);
+    input += work;
+    let n = c.n;
+    if !a.x[..n].iter().chain(&a.v[..n]).all(|p| p.is_finite()) {
+        return Err(StepError::NonFiniteState);
+    }
+    Ok(Report {
+        solve,
+        contacts: touching,
+        input,
+    })
+}
+
+/// `v += Δv`, `x += h v`. A solve stopped by the iteration cap leaves a `Δv` that is no warm
+/// start to trust (warm-starting from it injected energy at 161×161): the next solve starts
+/// from zero instead.
+fn integrate(a: &mut Arrays<'_>, c: &Counts, h: f32, converged: bool) {
+    let n = c.n;
+    for ((x, v), d) in a.x[..n].iter_mut().zip(&mut a.v[..n]).zip(&a.dv[..n]) {
+        *v += *d;
+        *x += *v * h;
+    }
+    if !converged {
+        a.dv[..n].fill(Vec3A::ZERO);
+    }
+}

@@ -1,0 +1,114 @@
+//! The step's energy balance: a step must never gain energy that nothing supplied.
+//!
+//! With `E = kinetic + elastic + bending` and gravity entering through its work `Σ m g·Δx`
+//! (from displacements, so positions far from the origin do not drown it in round-off), a
+//! step from state 0 to state 1 balances as
+//!
+//! ```text
+//!     gain = E₁ − E₀ − W_gravity − W_input ≤ floor
+//! ```
+//!
+//! where `W_input` is the work of everything that acts from outside: moving pins and colliders
+//! (their constraint impulses times their velocities, `contacts.rs`) and the wind
+//! (`forces.rs`). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
+//! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
+//! every step of every scene; when a step fails it, the world redoes it with twice the
+//! substeps (twice more at most), and if it still gains, the excess is taken out of the free
+//! vertices' kinetic energy. Only a gain beyond a quarter of the energy in play, after all
+//! that, refuses the step ([`crate::world::StepError::Unstable`]): a blow-up, not a drift.
+
+use glam::Vec3A;
+
+use crate::bending;
+use crate::membrane;
+use crate::sparse::Pattern;
+use crate::world::{effects, Arrays, Counts, Settings};
+
+/// Times a step is redone with twice the substeps before its excess energy is removed.
+pub(crate) const MAX_REDOS: u32 = 2;
+
+/// The energy of a state that the balance compares, and its round-off bound (J).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Level {
+    pub energy: f64,
+    pub noise: f64,
+}
+
+/// Kinetic + elastic (corotated, as the step's forces see it) + bending energy of the current
+/// state, with a bound on its `f32` round-off.
+pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Level {
+    let n = c.n;
+    let eff = st.effects;
+    let elastic = membrane::elastic_energy(
+        &a.triangles[..c.nt],
+        &a.elements[..c.nt],
+        &a.rest[..n],
+        &a.x[..n],
+        &a.normals[..n],
+        eff & effects::WARPING != 0,
+    )
+    .unwrap_or(0.0);
+    let (bending, bending_noise) = if eff & effects::BENDING != 0 {
+        let pattern = Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..c.nnz],
+        };
+        bending::energy_with_noise(&pattern, &a.q_off[..c.nnz], &a.x[..n])
+    } else {
+        (0.0, 0.0)
+    };
+    let kinetic = kinetic(&a.mass[..n], &a.v[..n]);
+    Level {
+        energy: kinetic + elastic + bending,
+        // Element strains are f32 differences of positions: ~1e-6 relative on the energy of
+        // a taut cloth; kinetic energy sums exact f32 products.
+        noise: 1e-5 * elastic + 1e-7 * kinetic + bending_noise,
+    }
+}
+
+/// `Σ ½ m |v|²` (J).
+pub(crate) fn kinetic(mass: &[f32], v: &[Vec3A]) -> f64 {
+    mass.iter()
+        .zip(v)
+        .map(|(&m, vi)| 0.5 * f64::from(m) * f64::from(vi.length_squared()))
+        .sum()
+}
+
+/// The work of gravity since the start of the step, `Σ m g·(x − x_start)` (J), and the
+/// round-off of the positions it is measured from.
+pub(crate) fn gravity_work(a: &Arrays<'_>, c: &Counts, st: &Settings) -> (f64, f64) {
+    if st.effects & effects::GRAVITY == 0 {
+        return (0.0, 0.0);
+    }
+    let g = Vec3A::from(st.gravity);
+    let (mut work, mut noise) = (0.0f64, 0.0f64);
+    for ((&m, x), x0) in a.mass[..c.n].iter().zip(&a.x[..c.n]).zip(&a.x_start[..c.n]) {
+        work += f64::from(m) * f64::from(g.dot(*x - *x0));
+        noise += f64::from(m * g.length() * f32::EPSILON * x.abs().max_element());
+    }
+    (work, noise)
+}
+
+/// Takes up to `excess` joules out of the kinetic energy of the vertices that are not pinned,
+/// by scaling their velocities uniformly (directions kept); returns what it took (J).
+pub(crate) fn remove_kinetic(a: &mut Arrays<'_>, c: &Counts, pins_on: bool, excess: f64) -> f64 {
+    let pin_of = &a.pin_of[..c.n];
+    let free = |i: usize| !(pins_on && pin_of.get(i).is_some_and(|&p| p != crate::mesh::NONE));
+    let mut free_kinetic = 0.0f64;
+    for (i, (&m, v)) in a.mass[..c.n].iter().zip(&a.v[..c.n]).enumerate() {
+        if free(i) {
+            free_kinetic += 0.5 * f64::from(m) * f64::from(v.length_squared());
+        }
+    }
+    if !(excess > 0.0 && free_kinetic > 0.0) {
+        return 0.0;
+    }
+    let taken = excess.min(free_kinetic);
+    let scale = libm::sqrt((free_kinetic - taken) / free_kinetic) as f32;
+    for (i, v) in a.v[..c.n].iter_mut().enumerate() {
+        if free(i) {
+            *v *= scale;
+        }
+    }
+    taken
+}

@@ -1,0 +1,101 @@
+//! Stage 3 of a substep: the system `A = (1 + hα) M + (hβ + h²)(K_w + B Q) + h D_air`
+//! (`D_air = Σ drag·area·n nᵀ`, the implicit air drag), its preconditioner, and the filtered
+//! PCG solve of `A Δv = rhs` (Baraff & Witkin §5.3, `pcg.rs`).
+//!
+//! `K_w` was assembled this substep anyway (`forces.rs`): mass, bending and drag are folded
+//! into the same 3×3 blocks, so a CG iteration is one block-sparse product.
+
+use glam::{Mat3A, Vec3, Vec3A};
+
+use crate::pcg;
+use crate::sparse::{self, Pattern};
+use crate::world::{effects, Arrays, Counts, Settings, StepError};
+
+/// Solves for `a.dv`. With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so
+/// that `A Δv − rhs` is the impulse the pins and contacts supplied (their work enters the
+/// step's energy balance).
+pub(crate) fn solve(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    h: f32,
+    constrained: bool,
+) -> Result<pcg::Stats, StepError> {
+    let n = c.n;
+    let eff = st.effects;
+    let (alpha, beta) = if eff & effects::DAMPING != 0 {
+        (st.damping_mass, st.damping_stiffness)
+    } else {
+        (0.0, 0.0)
+    };
+    let c_m = 1.0 + h * alpha;
+    let c_k = h * beta + h * h;
+    let settings = pcg::Settings {
+        tolerance: st.tolerance,
+        max_iterations: st.max_iterations,
+    };
+    if eff & effects::WARPING != 0 && st.per_node_warping {
+        #[cfg(feature = "research")]
+        return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
+    }
+    let bending_on = eff & effects::BENDING != 0;
+    let drag = if eff & effects::WIND != 0 { st.drag } else { 0.0 };
+    for (k, q) in a.k_off[..c.nnz].iter_mut().zip(&a.q_off[..c.nnz]) {
+        let b = if bending_on { *q } else { 0.0 };
+        *k = (*k + Mat3A::from_diagonal(Vec3::splat(b))) * c_k;
+    }
+    for ((((d, p), &m), &q), (nrm, &area)) in a.k_diag[..n]
+        .iter_mut()
+        .zip(&mut a.precond[..n])
+        .zip(&a.mass[..n])
+        .zip(&a.q_diag[..n])
+        .zip(a.normals[..n].iter().zip(&a.area[..n]))
+    {
+        let b = if bending_on { q } else { 0.0 };
+        *d = *d * c_k + Mat3A::from_diagonal(Vec3::splat(b * c_k + c_m * m));
+        if drag > 0.0 {
+            *d += outer(*nrm, *nrm) * (h * drag * area);
+        }
+        *p = pcg::invert_block(*d);
+    }
+    let op = sparse::BlockMatrix {
+        diag: &a.k_diag[..n],
+        pattern: Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..c.nnz],
+        },
+        off: &a.k_off[..c.nnz],
+    };
+    let work = pcg::Work {
+        r: &mut a.w_r[..n],
+        c: &mut a.w_c[..n],
+        q: &mut a.w_q[..n],
+        s: &mut a.w_s[..n],
+    };
+    let filter = if constrained {
+        Some(&a.filter[..n])
+    } else {
+        None
+    };
+    let dv = &mut a.dv[..n];
+    let stats = pcg::solve(
+        &op,
+        &a.precond[..n],
+        filter,
+        &a.rhs[..n],
+        dv,
+        &settings,
+        work,
+    )
+    .map_err(|_| StepError::SolverBreakdown)?;
+    if constrained {
+        op.mul(dv, &mut a.w_q[..n])
+            .map_err(|_| StepError::SolverBreakdown)?;
+    }
+    Ok(stats)
+}
+
+/// `a bᵀ`.
+pub(crate) fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
+    Mat3A::from_cols(a * b.x, a * b.y, a * b.z)
+}

@@ -1,0 +1,179 @@
+//! What a world reports: why init, a step or an edit refused, what a step did, its energy.
+
+use core::fmt;
+
+use crate::mesh::MeshError;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InitError {
+    /// The memory block is smaller than `Capacity::world_bytes()`.
+    MemoryTooSmall,
+    CapacityTooLarge,
+    /// The cloth does not fit: which capacity, how much was needed.
+    VertexCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    TriangleCapacity {
+        needed: u32,
+        capacity: u32,
+    },
+    EdgeCapacity {
+        capacity: u32,
+    },
+    Mesh(MeshError),
+    /// `materials` has a different length than `triangles`.
+    MaterialCount,
+    /// A triangle names a material (cell) that does not exist.
+    MaterialOutOfRange {
+        triangle: u32,
+        material: u32,
+    },
+    /// A material's numbers are unusable (non-finite, non-positive density, not SPD), or beyond
+    /// `f32` on this mesh (a lumped mass or an element stiffness overflows or underflows).
+    InvalidMaterial {
+        material: u32,
+    },
+    InvalidSetting {
+        field: &'static str,
+    },
+    /// An internal consistency check failed (a bug if it happens; never a panic).
+    Internal,
+}
+
+impl From<MeshError> for InitError {
+    fn from(e: MeshError) -> Self {
+        match e {
+            MeshError::EdgeCapacity { capacity } => InitError::EdgeCapacity { capacity },
+            e => InitError::Mesh(e),
+        }
+    }
+}
+
+/// Why a step failed. The world keeps the state it had before the step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StepError {
+    InvalidTimeStep,
+    /// A pin target is NaN or infinite.
+    NonFinitePin {
+        vertex: u32,
+    },
+    /// The solver broke down (indefinite or non-finite system).
+    SolverBreakdown,
+    /// The step produced NaN or infinite positions or velocities.
+    NonFiniteState,
+    /// The step's end state holds more mechanical energy than its start plus the work of
+    /// everything that acts from outside (wind, moving pins and colliders), even when redone
+    /// with 4× the substeps, and the excess is more than its kinetic energy can give back:
+    /// numerically unstable, e.g. sliver triangles beyond `f32` resolution. The state is the
+    /// one before this step.
+    Unstable,
+}
+
+/// What a step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// PCG iterations summed over substeps.
+    pub iterations: u32,
+    /// Largest final relative residual over substeps.
+    pub residual: f32,
+    /// Every substep's solve reached the tolerance.
+    pub converged: bool,
+    pub substeps: u32,
+    /// The world was asleep and did nothing.
+    pub asleep: bool,
+    /// Vertices in contact with a collider at the end of the step.
+    pub contacts: u32,
+    /// Times the step was redone with twice the substeps because its end state had gained
+    /// energy that nothing supplied (0, 1 or 2; `substeps` is the count finally used).
+    pub redone: u32,
+    /// Energy (J) taken out of the kinetic energy at the end because the step still gained it
+    /// without input after its redos (0 for a sound step).
+    pub energy_removed: f32,
+    /// The energy balance of the step (J): end energy − start energy − work of external
+    /// input, before any removal. ≤ 0 for a step that dissipates.
+    pub energy_gain: f32,
+}
+
+/// A cloth's mechanical energy by kind (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    pub kinetic: f64,
+    pub elastic: f64,
+    pub bending: f64,
+    /// Gravitational potential `-Σ m g·x` (zero when gravity is off).
+    pub gravity: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.elastic + self.bending + self.gravity
+    }
+}
+
+/// Errors of the pin and collider setters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EditError {
+    VertexOutOfRange,
+    NonFinite,
+    PinCapacity,
+    ColliderCapacity,
+    ColliderOutOfRange,
+    InvalidCollider,
+}
+
+
+impl fmt::Display for InitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            InitError::MemoryTooSmall => f.write_str("the memory block is smaller than the capacity needs"),
+            InitError::CapacityTooLarge => f.write_str("the capacity does not fit in memory addresses"),
+            InitError::VertexCapacity { needed, capacity } => {
+                write!(f, "{needed} vertices exceed the capacity of {capacity}")
+            }
+            InitError::TriangleCapacity { needed, capacity } => {
+                write!(f, "{needed} triangles exceed the capacity of {capacity}")
+            }
+            InitError::EdgeCapacity { capacity } => {
+                write!(f, "the mesh has more edges than the capacity of {capacity}")
+            }
+            InitError::Mesh(e) => write!(f, "invalid mesh: {e:?}"),
+            InitError::MaterialCount => f.write_str("materials and triangles differ in count"),
+            InitError::MaterialOutOfRange { triangle, material } => {
+                write!(f, "triangle {triangle} names material {material}, which does not exist")
+            }
+            InitError::InvalidMaterial { material } => {
+                write!(f, "material {material} is unusable (non-finite, not SPD, or beyond f32)")
+            }
+            InitError::InvalidSetting { field } => write!(f, "setting `{field}` is out of range"),
+            InitError::Internal => f.write_str("internal consistency check failed"),
+        }
+    }
+}
+
+impl fmt::Display for StepError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StepError::InvalidTimeStep => f.write_str("the time step is not finite and positive"),
+            StepError::NonFinitePin { vertex } => {
+                write!(f, "the pin of vertex {vertex} has a non-finite target")
+            }
+            StepError::SolverBreakdown => f.write_str("the linear solver broke down"),
+            StepError::NonFiniteState => f.write_str("the step produced non-finite positions or velocities"),
+            StepError::Unstable => f.write_str("the step created energy that nothing supplied"),
+        }
+    }
+}
+
+impl fmt::Display for EditError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            EditError::VertexOutOfRange => "vertex index or count out of range",
+            EditError::NonFinite => "a value is NaN or infinite",
+            EditError::PinCapacity => "no room for another pin",
+            EditError::ColliderCapacity => "no room for another collider",
+            EditError::ColliderOutOfRange => "no collider with that index",
+            EditError::InvalidCollider => "the collider's shape or parameters are invalid",
+        })
+    }
+}

@@ -1,0 +1,206 @@
+//! A world's memory: its [`Capacity`], and the one list of arrays from which the struct, the
+//! byte count ([`Capacity::world_bytes`], a `const fn`) and the carving of the caller's block
+//! all come, so they cannot disagree.
+
+use glam::{Mat3A, Quat, Vec3A};
+
+use super::InitError;
+use crate::collide::{Collider, Shape};
+use crate::membrane::Element;
+use crate::mesh;
+
+/// How much a world holds. Fixed at init; memory is [`Capacity::world_bytes`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capacity {
+    pub vertices: u32,
+    pub triangles: u32,
+    /// Unique edges (a grid of n×n vertices has 3(n-1)² + 2(n-1)).
+    pub edges: u32,
+    pub colliders: u32,
+    pub pins: u32,
+}
+
+impl Capacity {
+    /// The default C build: a 64×64-vertex cloth and 8 colliders.
+    pub const DEFAULT: Capacity = Capacity {
+        vertices: 4096,
+        triangles: 8064,
+        edges: 12160,
+        colliders: 8,
+        pins: 64,
+    };
+
+    /// Capacity for an `n × n`-vertex grid sheet (benchmarks, tests). Saturates at `u32::MAX`
+    /// (which no memory block satisfies) instead of overflowing.
+    pub const fn grid(n: u32) -> Capacity {
+        let s = n.saturating_sub(1);
+        let s2 = s.saturating_mul(s);
+        Capacity {
+            vertices: n.saturating_mul(n),
+            triangles: s2.saturating_mul(2),
+            edges: s2.saturating_mul(3).saturating_add(s.saturating_mul(2)),
+            colliders: 8,
+            pins: 64,
+        }
+    }
+
+    pub(crate) const fn v(&self) -> usize {
+        self.vertices as usize
+    }
+    pub(crate) const fn t(&self) -> usize {
+        self.triangles as usize
+    }
+    pub(crate) const fn e(&self) -> usize {
+        self.edges as usize
+    }
+    /// Couplings of the block matrix: edges plus hinges (at most one per edge).
+    pub(crate) const fn b(&self) -> usize {
+        (self.edges as usize).saturating_mul(2)
+    }
+    pub(crate) const fn c(&self) -> usize {
+        self.colliders as usize
+    }
+    pub(crate) const fn p(&self) -> usize {
+        self.pins as usize
+    }
+    /// Per-node rotations exist only for the research path (per-node warping, Eq. 14–17);
+    /// the default world carries none.
+    const fn r(&self) -> usize {
+        if cfg!(feature = "research") {
+            self.v()
+        } else {
+            0
+        }
+    }
+}
+
+/// Declares the world's arrays once: the struct, the byte count and the carving all come from
+/// this one list, so they cannot disagree.
+macro_rules! arrays {
+    ($cap:ident; $( $(#[$doc:meta])* $field:ident : $ty:ty = [$count:expr; $init:expr] ),* $(,)?) => {
+        /// Every array of a world, carved from the caller's block. The step's stages
+        /// (`crate::step`) work on these slices.
+        pub(crate) struct Arrays<'a> { $( $(#[$doc])* pub(crate) $field: &'a mut [$ty], )* }
+
+        impl Capacity {
+            /// Bytes a world of this capacity needs (including worst-case alignment padding).
+            pub const fn world_bytes(&self) -> usize {
+                let $cap = self;
+                let mut total = 0usize;
+                $( total = total.saturating_add(slot_bytes::<$ty>($count)); )*
+                total
+            }
+        }
+
+        pub(super) fn carve<'a>($cap: &Capacity, carver: &mut Carver<'a>) -> Result<Arrays<'a>, InitError> {
+            Ok(Arrays { $( $field: carver.take::<$ty>($count, $init)?, )* })
+        }
+    };
+}
+
+arrays! { cap;
+    /// Positions, velocities and the state at the start of the step (restored on failure).
+    x: Vec3A = [cap.v(); Vec3A::ZERO],
+    v: Vec3A = [cap.v(); Vec3A::ZERO],
+    x_start: Vec3A = [cap.v(); Vec3A::ZERO],
+    v_start: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// The solver's warm start at the start of the step (a redone step starts from it again).
+    dv_start: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Rest positions `(u, v, 0)`.
+    rest: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Lumped masses (kg).
+    mass: f32 = [cap.v(); 0.0],
+    /// Lumped area (m²), for wind.
+    area: f32 = [cap.v(); 0.0],
+    triangles: [u32; 3] = [cap.t(); [0; 3]],
+    tri_sign: f32 = [cap.t(); 0.0],
+    tri_material: u32 = [cap.t(); 0],
+    vt_start: u32 = [cap.v().saturating_add(1); 0],
+    vt: u32 = [cap.t().saturating_mul(3); 0],
+    ring_start: u32 = [cap.v().saturating_add(1); 0],
+    ring: u32 = [cap.e().saturating_mul(2); 0],
+    scratch_a: u32 = [cap.v(); 0],
+    scratch_b: u32 = [cap.v(); 0],
+    /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
+    row_start: u32 = [cap.v().saturating_add(1); 0],
+    cols: u32 = [cap.b(); 0],
+    /// Per triangle: its constant element stiffness and gradients, and where its three
+    /// vertex pairs sit in the block pattern.
+    elements: Element = [cap.t(); Element::ZERO],
+    slots: [u32; 3] = [cap.t(); [0; 3]],
+    /// Rotated membrane stiffness `K_w = Σ_e R_e K_e R_eᵀ` (N/m), re-assembled every substep.
+    k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
+    k_off: Mat3A = [cap.b(); Mat3A::ZERO],
+    /// Elastic forces of the current substep (N).
+    force: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
+    q_diag: f32 = [cap.v(); 0.0],
+    q_off: f32 = [cap.b(); 0.0],
+    /// Per-node rotations (feature `research` only; empty otherwise).
+    #[cfg_attr(not(feature = "research"), allow(dead_code))]
+    rot: Quat = [cap.r(); Quat::IDENTITY],
+    normals: Vec3A = [cap.v(); Vec3A::Z],
+    /// Right-hand side, solution (warm start) and PCG work vectors.
+    rhs: Vec3A = [cap.v(); Vec3A::ZERO],
+    dv: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_r: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_c: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_q: Vec3A = [cap.v(); Vec3A::ZERO],
+    w_s: Vec3A = [cap.v(); Vec3A::ZERO],
+    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
+    /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
+    /// which bounds Coulomb friction.
+    contact_collider: u32 = [cap.v(); mesh::NONE],
+    contact_push: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Pin index of each vertex, or `mesh::NONE`.
+    pin_of: u32 = [cap.v(); mesh::NONE],
+    pin_vertex: u32 = [cap.p(); 0],
+    pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
+    pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
+    colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
+}
+
+/// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes
+/// (which no block satisfies: init reports `MemoryTooSmall`) instead of overflowing.
+const fn slot_bytes<T>(n: usize) -> usize {
+    n.saturating_mul(core::mem::size_of::<T>())
+        .saturating_add(core::mem::align_of::<T>() - 1)
+}
+
+/// Hands out typed, initialized slices from a caller's byte block.
+pub(super) struct Carver<'a> {
+    pub(super) rest: &'a mut [u8],
+    pub(super) needed: usize,
+}
+
+impl<'a> Carver<'a> {
+    fn take<T: Copy>(&mut self, n: usize, init: T) -> Result<&'a mut [T], InitError> {
+        let size = core::mem::size_of::<T>();
+        let align = core::mem::align_of::<T>();
+        let addr = self.rest.as_ptr() as usize;
+        let pad = (align - addr % align) % align;
+        let bytes = n.checked_mul(size).ok_or(InitError::CapacityTooLarge)?;
+        self.needed = self.needed.saturating_add(pad + bytes);
+        if self.rest.len() < pad + bytes {
+            return Err(InitError::MemoryTooSmall);
+        }
+        let rest = core::mem::take(&mut self.rest);
+        let (_, rest) = rest.split_at_mut(pad);
+        let (head, tail) = rest.split_at_mut(bytes);
+        self.rest = tail;
+        let ptr = head.as_mut_ptr().cast::<T>();
+        // SAFETY: `head` is an exclusive borrow of `n * size_of::<T>()` bytes for 'a, and `pad`
+        // made its start aligned for T. Every element is written with `init` before the slice
+        // is formed, so no byte pattern of the caller's memory is ever read as a T. T: Copy has
+        // no destructor, so forgetting the values when the block is reused is fine.
+        unsafe {
+            for i in 0..n {
+                ptr.add(i).write(init);
+            }
+            Ok(core::slice::from_raw_parts_mut(ptr, n))
+        }
+    }
+}
+

@@ -1,0 +1,866 @@
+//! The runtime `World`: a coarse cloth and everything needed to step it, in a caller-owned
+//! memory block (paper §5).
+//!
+//! Memory is the caller's: [`Capacity::world_bytes`] says how many bytes a world of a given
+//! capacity needs (a `const fn`, so it can size a `static`), and [`World::new`] carves every
+//! array out of that block (`memory.rs`). Nothing allocates, nothing panics; init either builds
+//! the whole world or returns an error and leaves nothing behind.
+//!
+//! A step is linearized implicit Euler on the per-element corotated membrane (`membrane.rs`),
+//! hinge bending, gravity, wind and Rayleigh damping, with pins and contacts in the filter of
+//! the modified PCG; its stages live in [`crate::step`], in order, and every step's energy
+//! balance is checked at its end (`step/monitor.rs`).
+
+mod error;
+mod memory;
+mod settings;
+
+pub use error::{EditError, Energy, InitError, StepError, StepStats};
+pub(crate) use memory::Arrays;
+pub use memory::Capacity;
+pub use settings::{effects, Settings};
+
+#[cfg(feature = "research")]
+use glam::Quat;
+use glam::Vec3A;
+
+use crate::bending;
+use crate::blob::Blob;
+use crate::collide::{Collider, Shape};
+use crate::membrane::{self, Element};
+use crate::mesh::{self, MeshError, Topology};
+use crate::normals;
+use crate::sparse::{self, Pattern};
+use crate::step::{self, monitor};
+
+/// How many of each thing a built world holds: the lengths the step's stages slice its
+/// arrays to.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Counts {
+    pub n: usize,
+    pub nt: usize,
+    pub nnz: usize,
+    pub pins: usize,
+    pub colliders: usize,
+}
+
+/// the fine reference), areal density and bending stiffness.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Membrane stiffness, N/m, Voigt `[11, 22, 12]`, engineering shear.
+    pub stiffness: [[f64; 3]; 3],
+    /// kg/m².
+    pub density: f64,
+    /// N·m.
+    pub bending: f64,
+}
+
+/// Where triangle materials come from: the cells of a blob (index = cell index) or a table.
+#[derive(Clone, Copy)]
+pub enum Materials<'a> {
+    Blob(&'a Blob<'a>),
+    Table(&'a [Material]),
+}
+
+impl Materials<'_> {
+    pub fn get(&self, i: u32) -> Option<Material> {
+        match self {
+            Materials::Blob(b) => b.cell(i as usize).map(|c| Material {
+                stiffness: c.stiffness,
+                density: c.density,
+                bending: c.bending,
+            }),
+            Materials::Table(t) => t.get(i as usize).copied(),
+        }
+    }
+}
+
+/// The cloth handed to [`World::new`]. Borrowed; nothing is kept.
+#[derive(Clone, Copy)]
+pub struct ClothDef<'a> {
+    /// Initial positions (m).
+    pub positions: &'a [[f32; 3]],
+    /// Material coordinates (u, v) in metres: the rest shape.
+    pub uvs: &'a [[f32; 2]],
+    pub triangles: &'a [[u32; 3]],
+    /// Per triangle, its material (the cell index in a blob).
+    pub materials: &'a [u32],
+}
+
+pub struct World<'a> {
+    a: Arrays<'a>,
+    capacity: Capacity,
+    settings: Settings,
+    n: usize,
+    nt: usize,
+    ne: usize,
+    nh: usize,
+    nnz: usize,
+    pins: usize,
+    colliders: usize,
+    /// Per-vertex lumped mass sum, kg.
+    total_mass: f64,
+    calm_frames: u32,
+    /// The energy balance's level of the current state, when known (each step's end is the
+    /// next one's start; every edit forgets it).
+    level: Option<monitor::Level>,
+    /// The work of external input in the last attempt at a step, and its round-off (J).
+    last_input: (f64, f64),
+    asleep: bool,
+    last: StepStats,
+}
+
+impl<'a> World<'a> {
+    /// Builds a world for `cloth` in `memory` (at least `capacity.world_bytes()` bytes).
+    pub fn new(
+        memory: &'a mut [u8],
+        capacity: Capacity,
+        cloth: &ClothDef<'_>,
+        materials: Materials<'_>,
+        settings: Settings,
+    ) -> Result<World<'a>, InitError> {
+        settings.validate()?;
+        let (n, nt) = (cloth.positions.len(), cloth.triangles.len());
+        if n > capacity.v() {
+            return Err(InitError::VertexCapacity {
+                needed: n as u32,
+                capacity: capacity.vertices,
+            });
+        }
+        if nt > capacity.t() {
+            return Err(InitError::TriangleCapacity {
+                needed: nt as u32,
+                capacity: capacity.triangles,
+            });
+        }
+        if cloth.uvs.len() != n {
+            return Err(InitError::Mesh(MeshError::BufferTooSmall));
+        }
+        if cloth.materials.len() != nt {
+            return Err(InitError::MaterialCount);
+        }
+        if memory.len() < capacity.world_bytes() {
+            return Err(InitError::MemoryTooSmall);
+        }
+        let mut carver = memory::Carver {
+            rest: memory,
+            needed: 0,
+        };
+        let a = memory::carve(&capacity, &mut carver)?;
+        let mut w = World {
+            a,
+            capacity,
+            settings,
+            n,
+            nt,
+            ne: 0,
+            nh: 0,
+            nnz: 0,
+            pins: 0,
+            colliders: 0,
+            total_mass: 0.0,
+            calm_frames: 0,
+            level: None,
+            last_input: (0.0, 0.0),
+            asleep: false,
+            last: StepStats::default(),
+        };
+        w.build(cloth, materials)?;
+        Ok(w)
+    }
+
+    fn build(&mut self, cloth: &ClothDef<'_>, materials: Materials<'_>) -> Result<(), InitError> {
+        let (n, nt) = (self.n, self.nt);
+        let a = &mut self.a;
+        mesh::validate(
+            cloth.positions,
+            cloth.uvs,
+            cloth.triangles,
+            &mut a.tri_sign[..nt],
+        )?;
+        // Materials: every triangle's must exist and be usable.
+        for (t, &m) in cloth.materials.iter().enumerate() {
+            let mat = materials.get(m).ok_or(InitError::MaterialOutOfRange {
+                triangle: t as u32,
+                material: m,
+            })?;
+            let ok = membrane::is_spd(&mat.stiffness)
+                && mat.density.is_finite()
+                && mat.density > 0.0
+                && mat.bending.is_finite()
+                && mat.bending >= 0.0;
+            if !ok {
+                return Err(InitError::InvalidMaterial { material: m });
+            }
+        }
+        a.triangles[..nt].copy_from_slice(cloth.triangles);
+        a.tri_material[..nt].copy_from_slice(cloth.materials);
+        for i in 0..n {
+            let p = cloth.positions[i];
+            let uv = cloth.uvs[i];
+            a.x[i] = Vec3A::from(p);
+            a.rest[i] = Vec3A::new(uv[0], uv[1], 0.0);
+        }
+        // Edges, hinges and the block couplings are needed only here, before the stiffness
+        // blocks are first assembled: they borrow the blocks' bytes (2E blocks of 48 bytes hold
+        // E edges, E edge-triangle pairs, E hinges and 2E couplings with room to spare).
+        let e_cap = self.capacity.e();
+        let scratch: &mut [u8] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let (edges, scratch) = scratch.split_at_mut(8 * e_cap);
+        let (edge_tris, scratch) = scratch.split_at_mut(8 * e_cap);
+        let (hinges, scratch) = scratch.split_at_mut(16 * e_cap);
+        let (couplings, _) = scratch.split_at_mut(16 * e_cap);
+        let edges: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edges);
+        let edge_tris: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edge_tris);
+        let hinges: &mut [[u32; 4]] = bytemuck::cast_slice_mut(hinges);
+        let couplings: &mut [[u32; 2]] = bytemuck::cast_slice_mut(couplings);
+        let counts = mesh::build(
+            n,
+            &a.triangles[..nt],
+            &a.tri_sign[..nt],
+            &mut Topology {
+                vt_start: a.vt_start,
+                vt: a.vt,
+                edges,
+                edge_tris,
+                hinges,
+                ring_start: a.ring_start,
+                ring: a.ring,
+                scratch_a: a.scratch_a,
+                scratch_b: a.scratch_b,
+            },
+        )?;
+        self.ne = counts.edges;
+        self.nh = counts.hinges;
+        let nc = mesh::couplings(&edges[..self.ne], &hinges[..self.nh], couplings)?;
+        self.nnz =
+            sparse::build_pattern(n, &couplings[..nc], a.row_start, a.cols).map_err(|_| {
+                InitError::EdgeCapacity {
+                    capacity: self.capacity.edges,
+                }
+            })?;
+
+        // Element stiffness K_e = A Bᵀ C^H B (Eq. 10–11 on the coarse mesh with the cell's C^H),
+        // lumped masses, and each element's place in the block pattern.
+        let pattern = Pattern {
+            row_start: &a.row_start[..n + 1],
+            cols: &a.cols[..self.nnz],
+        };
+        let mut total_mass = 0.0f64;
+        for t in 0..nt {
+            let tri = a.triangles[t];
+            let mat = materials
+                .get(a.tri_material[t])
+                .ok_or(InitError::Internal)?;
+            let uv = tri.map(|i| {
+                let r = a.rest[i as usize];
+                [r.x as f64, r.y as f64]
+            });
+            let degenerate = InitError::Mesh(MeshError::DegenerateUv { triangle: t as u32 });
+            let g = membrane::gradients(uv).ok_or(degenerate)?;
+            a.elements[t] = Element::new(uv, &mat.stiffness).ok_or(degenerate)?;
+            // Stiffness, lumped area and mass are f32: a value beyond its range is refused here
+            // rather than becoming an infinite (or zero) mass or force.
+            let e = &a.elements[t];
+            let bad_material = InitError::InvalidMaterial {
+                material: a.tri_material[t],
+            };
+            let bad_uv = InitError::Mesh(MeshError::UvOutOfRange { triangle: t as u32 });
+            if !e.c.iter().all(|v| v.is_finite()) {
+                return Err(bad_material);
+            }
+            let (area3, m) = (g.area / 3.0, mat.density * g.area / 3.0);
+            let grad_ok = e.grad.iter().all(|v| v.is_finite());
+            if !(grad_ok && e.area.is_finite() && (area3 as f32).is_finite() && area3 as f32 > 0.0)
+            {
+                return Err(bad_uv);
+            }
+            if !((m as f32).is_finite() && m as f32 > 0.0) {
+                return Err(bad_material);
+            }
+            for &i in &tri {
+                let i = i as usize;
+                a.mass[i] += m as f32;
+                a.area[i] += area3 as f32;
+                total_mass += m;
+                if !a.area[i].is_finite() {
+                    return Err(bad_uv);
+                }
+                if !a.mass[i].is_finite() {
+                    return Err(bad_material);
+                }
+            }
+            for (p, (ai, bi)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+                let (i, j) = (tri[ai] as usize, tri[bi] as usize);
+                let (lo, hi, flag) = if i < j {
+                    (i, j, 0)
+                } else {
+                    (j, i, membrane::TRANSPOSED)
+                };
+                let k = pattern.find(lo, hi).ok_or(InitError::Internal)?;
+                a.slots[t][p] = k as u32 | flag;
+            }
+        }
+        self.total_mass = total_mass;
+
+        // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
+        // stiffness of its two triangles.
+        for &hinge in &hinges[..self.nh] {
+            let t0 = triangle_of(
+                a.vt_start,
+                a.vt,
+                a.triangles,
+                [hinge[0], hinge[1], hinge[2]],
+            )
+            .ok_or(InitError::Internal)?;
+            let t1 = triangle_of(
+                a.vt_start,
+                a.vt,
+                a.triangles,
+                [hinge[0], hinge[1], hinge[3]],
+            )
+            .ok_or(InitError::Internal)?;
+            let b0 = materials
+                .get(a.tri_material[t0])
+                .map(|m| m.bending)
+                .unwrap_or(0.0);
+            let b1 = materials
+                .get(a.tri_material[t1])
+                .map(|m| m.bending)
+                .unwrap_or(0.0);
+            let uv = hinge.map(|i| {
+                let r = a.rest[i as usize];
+                [r.x as f64, r.y as f64]
+            });
+            let Some(q) = bending::hinge_hessian(uv, bending::CONTINUUM_SCALE * 0.5 * (b0 + b1))
+            else {
+                continue; // a degenerate hinge bends freely rather than blowing up
+            };
+            for (ai, &i) in hinge.iter().enumerate() {
+                for (bi, &j) in hinge.iter().enumerate() {
+                    if i > j {
+                        continue;
+                    }
+                    sparse::add_scalar(
+                        &pattern,
+                        &mut a.q_diag[..n],
+                        &mut a.q_off[..self.nnz],
+                        i as usize,
+                        j as usize,
+                        q[ai][bi] as f32,
+                    )
+                    .map_err(|_| InitError::Internal)?;
+                }
+            }
+        }
+
+        // Normals (and, for per-node warping, warm-started rotations) of the initial placement.
+        self.refresh_frames(8);
+        Ok(())
+    }
+
+    // ----- accessors -----
+
+    pub fn vertex_count(&self) -> usize {
+        self.n
+    }
+    pub fn triangle_count(&self) -> usize {
+        self.nt
+    }
+    pub fn edge_count(&self) -> usize {
+        self.ne
+    }
+    pub fn hinge_count(&self) -> usize {
+        self.nh
+    }
+    pub fn capacity(&self) -> Capacity {
+        self.capacity
+    }
+    pub fn positions(&self) -> &[Vec3A] {
+        &self.a.x[..self.n]
+    }
+    pub fn velocities(&self) -> &[Vec3A] {
+        &self.a.v[..self.n]
+    }
+    pub fn masses(&self) -> &[f32] {
+        &self.a.mass[..self.n]
+    }
+    pub fn rest_positions(&self) -> &[Vec3A] {
+        &self.a.rest[..self.n]
+    }
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.a.triangles[..self.nt]
+    }
+    pub fn triangle_materials(&self) -> &[u32] {
+        &self.a.tri_material[..self.nt]
+    }
+    /// Triangles incident to vertex `v` (empty for an out-of-range index).
+    pub fn incident_triangles(&self, v: usize) -> &[u32] {
+        let a = &self.a;
+        match (a.vt_start.get(v), a.vt_start.get(v + 1)) {
+            (Some(&s), Some(&e)) if v < self.n => a.vt.get(s as usize..e as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
+    /// Per-vertex rotations of the per-node warping mode (identity otherwise).
+    #[cfg(feature = "research")]
+    pub fn rotations(&self) -> &[Quat] {
+        &self.a.rot[..self.n]
+    }
+    pub fn normals(&self) -> &[Vec3A] {
+        &self.a.normals[..self.n]
+    }
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+    pub fn last_step(&self) -> StepStats {
+        self.last
+    }
+    pub fn is_asleep(&self) -> bool {
+        self.asleep
+    }
+    pub fn total_mass(&self) -> f64 {
+        self.total_mass
+    }
+
+    /// Changes scene parameters; wakes the world when anything changed.
+    pub fn set_settings(&mut self, settings: Settings) -> Result<(), InitError> {
+        settings.validate()?;
+        if settings != self.settings {
+            self.settings = settings;
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// Wakes a sleeping world.
+    pub fn wake(&mut self) {
+        self.asleep = false;
+        self.calm_frames = 0;
+        self.level = None;
+    }
+
+    /// Overwrites positions (and zeroes nothing else); wakes the world.
+    pub fn set_positions(&mut self, positions: &[[f32; 3]]) -> Result<(), EditError> {
+        if positions.len() != self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        if positions.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        for (x, p) in self.a.x.iter_mut().zip(positions) {
+            *x = Vec3A::from(*p);
+        }
+        self.wake();
+        Ok(())
+    }
+
+    /// Overwrites velocities and forgets the solver's warm start (the last step's velocity
+    /// change, meaningless for the new velocities); wakes the world.
+    pub fn set_velocities(&mut self, velocities: &[[f32; 3]]) -> Result<(), EditError> {
+        if velocities.len() != self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        if velocities.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        for (v, p) in self.a.v.iter_mut().zip(velocities) {
+            *v = Vec3A::from(*p);
+        }
+        self.a.dv[..self.n].fill(Vec3A::ZERO);
+        self.wake();
+        Ok(())
+    }
+
+    // ----- pins -----
+
+    /// Pins `vertex` to `target` (m). A pin that already exists gets the new target; the vertex
+    /// moves there over the next step (linearly across substeps). Wakes the world when the
+    /// target changed. Targets are checked at step time too, so a NaN target set through a
+    /// raw pointer in C is still caught.
+    pub fn set_pin(&mut self, vertex: u32, target: [f32; 3]) -> Result<(), EditError> {
+        let vi = vertex as usize;
+        if vi >= self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        let target = Vec3A::from(target);
+        let p = self.a.pin_of[vi];
+        if p != mesh::NONE {
+            let slot = &mut self.a.pin_target[p as usize];
+            if *slot != target {
+                *slot = target;
+                self.wake();
+            }
+            return Ok(());
+        }
+        if self.pins >= self.capacity.p() {
+            return Err(EditError::PinCapacity);
+        }
+        let p = self.pins;
+        self.a.pin_vertex[p] = vertex;
+        self.a.pin_target[p] = target;
+        // A new pin starts where the vertex is, so it is not yanked in one substep.
+        self.a.pin_previous[p] = self.a.x[vi];
+        self.a.pin_of[vi] = p as u32;
+        self.pins += 1;
+        self.wake();
+        Ok(())
+    }
+
+    /// Releases the pin of `vertex` (no error if it had none).
+    pub fn remove_pin(&mut self, vertex: u32) -> Result<(), EditError> {
+        let vi = vertex as usize;
+        if vi >= self.n {
+            return Err(EditError::VertexOutOfRange);
+        }
+        let p = self.a.pin_of[vi];
+        if p == mesh::NONE {
+            return Ok(());
+        }
+        // Swap-remove, keeping pin_of consistent.
+        let last = self.pins - 1;
+        let p = p as usize;
+        self.a.pin_vertex[p] = self.a.pin_vertex[last];
+        self.a.pin_target[p] = self.a.pin_target[last];
+        self.a.pin_previous[p] = self.a.pin_previous[last];
+        self.a.pin_of[self.a.pin_vertex[p] as usize] = p as u32;
+        self.a.pin_of[vi] = mesh::NONE;
+        self.pins = last;
+        self.wake();
+        Ok(())
+    }
+
+    pub fn pin_count(&self) -> usize {
+        self.pins
+    }
+
+    // ----- colliders -----
+
+    /// Adds a collider; returns its index.
+    pub fn add_collider(&mut self, collider: Collider) -> Result<u32, EditError> {
+        if !collider.is_valid() {
+            return Err(EditError::InvalidCollider);
+        }
+        if self.colliders >= self.capacity.c() {
+            return Err(EditError::ColliderCapacity);
+        }
+        self.a.colliders[self.colliders] = collider;
+        self.colliders += 1;
+        self.wake();
+        Ok(self.colliders as u32 - 1)
+    }
+
+    /// Moves collider `index` to `shape`; the next step sweeps it from where it was.
+    pub fn set_collider_shape(&mut self, index: u32, shape: Shape) -> Result<(), EditError> {
+        let c = self
+            .a
+            .colliders
+            .get_mut(..self.colliders)
+            .and_then(|c| c.get_mut(index as usize))
+            .ok_or(EditError::ColliderOutOfRange)?;
+        if !shape.is_valid() {
+            return Err(EditError::InvalidCollider);
+        }
+        if c.shape != shape {
+            c.shape = shape;
+            self.wake();
+        }
+        Ok(())
+    }
+
+    pub fn collider(&self, index: u32) -> Option<&Collider> {
+        self.a.colliders[..self.colliders].get(index as usize)
+    }
+
+    pub fn collider_count(&self) -> usize {
+        self.colliders
+    }
+
+    /// Removes all colliders.
+    pub fn clear_colliders(&mut self) {
+        self.colliders = 0;
+        self.wake();
+    }
+
+
+    // ----- stepping -----
+
+    /// Advances by `settings.time_step`.
+    pub fn step(&mut self) -> Result<StepStats, StepError> {
+        self.step_dt(self.settings.time_step)
+    }
+
+    /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
+    /// [`crate::step`]), then checks the step's energy balance: a step whose end state holds
+    /// more energy than its start plus the work of external input is redone with twice the
+    /// substeps (at most twice), and what it still gains is taken out of its kinetic energy
+    /// (see [`StepStats::redone`], [`StepStats::energy_removed`]). On error the world keeps
+    /// the state it had before the call.
+    pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(StepError::InvalidTimeStep);
+        }
+        let eff = self.settings.effects;
+        let pins_on = eff & effects::PINS != 0;
+        if pins_on {
+            for p in 0..self.pins {
+                if !self.a.pin_target[p].is_finite() {
+                    return Err(StepError::NonFinitePin {
+                        vertex: self.a.pin_vertex[p],
+                    });
+                }
+            }
+        }
+        if self.asleep && eff & effects::SLEEP != 0 {
+            self.last = StepStats {
+                asleep: true,
+                converged: true,
+                ..StepStats::default()
+            };
+            return Ok(self.last);
+        }
+        let n = self.n;
+        self.a.x_start[..n].copy_from_slice(&self.a.x[..n]);
+        self.a.v_start[..n].copy_from_slice(&self.a.v[..n]);
+        self.a.dv_start[..n].copy_from_slice(&self.a.dv[..n]);
+        let counts = self.counts();
+        let start = match self.level {
+            Some(level) => level,
+            None => monitor::level(&self.a, &counts, &self.settings),
+        };
+        let mut substeps = self.settings.substeps.max(1);
+        let mut redone = 0;
+        let stats = loop {
+            let mut stats = match self.run_substeps(dt, substeps) {
+                Ok(stats) => stats,
+                Err(e) => {
+                    self.restore_start();
+                    return Err(e);
+                }
+            };
+            let (input, input_noise) = self.last_input;
+            let end = monitor::level(&self.a, &counts, &self.settings);
+            let (gravity, gravity_noise) = monitor::gravity_work(&self.a, &counts, &self.settings);
+            let gain = end.energy - start.energy - gravity - input;
+            let floor = start.noise + end.noise + gravity_noise + input_noise;
+            stats.redone = redone;
+            stats.energy_gain = gain as f32;
+            if gain <= floor {
+                self.level = Some(end);
+                break stats;
+            }
+            if redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2 {
+                // Redo from the start with half the substep: the linearization and the
+                // contacts' one-substep prediction are the usual sources of a gain.
+                self.restore_start();
+                substeps *= 2;
+                redone += 1;
+                continue;
+            }
+            let excess = gain - floor;
+            let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess);
+            let in_play = start.energy + end.energy + gravity.abs() + input.abs();
+            if !(excess - removed <= 0.25 * in_play) {
+                self.restore_start();
+                return Err(StepError::Unstable);
+            }
+            stats.energy_removed = removed as f32;
+            self.level = Some(monitor::level(&self.a, &counts, &self.settings));
+            break stats;
+        };
+        // The sweep of colliders and pins ends where the engine put them.
+        for c in &mut self.a.colliders[..self.colliders] {
+            c.previous = c.shape;
+        }
+        for p in 0..self.pins {
+            self.a.pin_previous[p] = self.a.pin_target[p];
+        }
+        if eff & effects::SLEEP != 0 {
+            let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
+            let calm = self.a.v[..n].iter().all(|v| v.length_squared() <= limit);
+            self.calm_frames = if calm { self.calm_frames + 1 } else { 0 };
+            if self.calm_frames >= self.settings.sleep_frames.max(1) {
+                self.asleep = true;
+                self.a.v[..n].fill(Vec3A::ZERO);
+                self.level = None;
+            }
+        }
+        self.last = stats;
+        Ok(stats)
+    }
+
+    /// The substeps of one attempt at a step; `self.last_input` gets the work of external
+    /// input (J) and its round-off.
+    fn run_substeps(&mut self, dt: f32, substeps: u32) -> Result<StepStats, StepError> {
+        let counts = self.counts();
+        let h = dt / substeps as f32;
+        let mut stats = StepStats {
+            converged: true,
+            substeps,
+            ..StepStats::default()
+        };
+        let (mut input, mut noise) = (0.0f64, 0.0f64);
+        for s in 0..substeps {
+            let sub = step::Substep {
+                h,
+                t0: s as f32 / substeps as f32,
+                t: (s + 1) as f32 / substeps as f32,
+            };
+            let report = step::substep(&mut self.a, &counts, &self.settings, sub)?;
+            stats.iterations += report.solve.iterations;
+            stats.residual = stats.residual.max(report.solve.residual);
+            stats.converged &= report.solve.converged;
+            stats.contacts = report.contacts;
+            input += report.input;
+            // the estimate of the input is as good as the solve that gave its impulses
+            noise += report.input.abs() * f64::from(report.solve.residual.max(1e-3));
+        }
+        self.last_input = (input, noise);
+        Ok(stats)
+    }
+
+    /// Puts back the state saved at the start of the step.
+    fn restore_start(&mut self) {
+        let n = self.n;
+        self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
+        self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
+        self.a.dv[..n].copy_from_slice(&self.a.dv_start[..n]);
+        // A failed solve's Δv (maybe huge or NaN) must not warm-start the next step, or one
+        // bad input breaks every later solve.
+        if !self.a.dv[..n].iter().all(|d| d.is_finite()) {
+            self.a.dv[..n].fill(Vec3A::ZERO);
+        }
+        // Normals (and rotations) are warm starts; re-derive them from the restored state.
+        self.refresh_frames(8);
+    }
+
+    /// The counts the step's stages slice the arrays to.
+    fn counts(&self) -> Counts {
+        Counts {
+            n: self.n,
+            nt: self.nt,
+            nnz: self.nnz,
+            pins: self.pins,
+            colliders: self.colliders,
+        }
+    }
+
+    /// The cloth's mechanical energy (J): kinetic, corotated elastic (per element, as the
+    /// step's own forces see it), bending and gravitational (if on).
+    pub fn energy(&mut self) -> Energy {
+        let n = self.n;
+        let eff = self.settings.effects;
+        let a = &self.a;
+        let elastic = membrane::elastic_energy(
+            &a.triangles[..self.nt],
+            &a.elements[..self.nt],
+            &a.rest[..n],
+            &a.x[..n],
+            &a.normals[..n],
+            eff & effects::WARPING != 0,
+        )
+        .unwrap_or(0.0);
+        let bending = if eff & effects::BENDING != 0 {
+            let pattern = Pattern {
+                row_start: &a.row_start[..n + 1],
+                cols: &a.cols[..self.nnz],
+            };
+            bending::energy(&pattern, &a.q_off[..self.nnz], &a.x[..n])
+        } else {
+            0.0
+        };
+        let kinetic = monitor::kinetic(&a.mass[..n], &a.v[..n]);
+        let gravity = if eff & effects::GRAVITY != 0 {
+            let g = Vec3A::from(self.settings.gravity);
+            -a.mass[..n]
+                .iter()
+                .zip(&a.x[..n])
+                .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
+                .sum::<f64>()
+        } else {
+            0.0
+        };
+        Energy {
+            kinetic,
+            elastic,
+            bending,
+            gravity,
+        }
+    }
+
+    /// Vertex normals (and, for per-node warping, the rotations) of the current positions.
+    fn refresh_frames(&mut self, iterations: u32) {
+        let n = self.n;
+        #[cfg(feature = "research")]
+        if self.settings.per_node_warping {
+            let counts = self.counts();
+            crate::research::per_node::update_rotations(&mut self.a, &counts, iterations);
+            return;
+        }
+        let _ = iterations;
+        let a = &mut self.a;
+        // Only fails on inconsistent lengths, which the world never has; the previous
+        // normals then stay, which is what a normal's fallback is anyway.
+        if normals::vertex_normals(
+            &a.triangles[..self.nt],
+            &a.tri_sign[..self.nt],
+            &a.x[..n],
+            &mut a.normals[..n],
+        )
+        .is_err()
+        {
+            a.normals[..n].fill(normals::REST_NORMAL);
+        }
+    }
+
+    /// The elastic forces (N) on the current state, exactly as the next substep computes
+    /// them; for tests and diagnostics. Returns false when `out` is too short.
+    pub fn elastic_forces(&mut self, out: &mut [Vec3A]) -> bool {
+        let n = self.n;
+        if out.len() < n {
+            return false;
+        }
+        self.refresh_frames(16);
+        let warping = self.settings.effects & effects::WARPING != 0;
+        let per_node = warping && self.settings.per_node_warping;
+        let a = &mut self.a;
+        let ok = membrane::assemble_corotated(
+            &a.triangles[..self.nt],
+            &a.elements[..self.nt],
+            &a.slots[..self.nt],
+            &a.rest[..n],
+            &a.x[..n],
+            &a.normals[..n],
+            warping && !per_node,
+            &mut a.k_diag[..n],
+            &mut a.k_off[..self.nnz],
+            &mut out[..n],
+        )
+        .is_ok();
+        #[cfg(feature = "research")]
+        if ok && per_node {
+            let counts = self.counts();
+            return crate::research::per_node::warped_force(&mut self.a, &counts, &mut out[..n])
+                .is_ok();
+        }
+        ok
+    }
+}
+
+/// The triangle whose corners are exactly `corners` (in any order), found through the
+/// incidence list of the first corner.
+fn triangle_of(
+    vt_start: &[u32],
+    vt: &[u32],
+    triangles: &[[u32; 3]],
+    corners: [u32; 3],
+) -> Option<usize> {
+    let v = corners[0] as usize;
+    let range = (*vt_start.get(v)? as usize)..(*vt_start.get(v + 1)? as usize);
+    vt.get(range)?.iter().map(|&t| t as usize).find(|&t| {
+        triangles
+            .get(t)
+            .is_some_and(|tri| corners.iter().all(|c| tri.contains(c)))
+    })
+}
+

@@ -1,0 +1,140 @@
+//! Scene parameters: the [`effects`] a scene calls for and the [`Settings`] of the step.
+
+use super::InitError;
+
+
+/// Scene effects, a bit set. An effect that is off costs nothing in the step.
+pub mod effects {
+    pub const GRAVITY: u32 = 1 << 0;
+    pub const BENDING: u32 = 1 << 1;
+    /// Rayleigh damping `αM + βK`.
+    pub const DAMPING: u32 = 1 << 2;
+    pub const PINS: u32 = 1 << 3;
+    pub const COLLISION: u32 = 1 << 4;
+    /// Wind and air drag.
+    pub const WIND: u32 = 1 << 5;
+    /// Warped (corotated) stiffness: each triangle's forces in its own rotating frame. Off:
+    /// plain linear FEM (for the accuracy study).
+    pub const WARPING: u32 = 1 << 6;
+    /// A cloth at rest goes to sleep and costs nothing until something wakes it.
+    pub const SLEEP: u32 = 1 << 7;
+    /// Every effect above.
+    pub const ALL: u32 = (1 << 8) - 1;
+}
+
+/// Scene parameters. Can change between steps ([`World::set_settings`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Bit set of [`effects`].
+    pub effects: u32,
+    /// Frame time step (s) used by [`World::step`].
+    pub time_step: f32,
+    /// Substeps per step (≥ 1).
+    pub substeps: u32,
+    /// m/s².
+    pub gravity: [f32; 3],
+    /// Rayleigh damping: mass factor α (1/s) and stiffness factor β (s).
+    pub damping_mass: f32,
+    pub damping_stiffness: f32,
+    /// Wind velocity (m/s) and drag coefficient (kg/(m²·s)): the force on a vertex is
+    /// `drag · area · ((wind - v)·n) n`.
+    pub wind: [f32; 3],
+    pub drag: f32,
+    /// PCG relative residual and iteration cap (1..=[`Settings::MAX_ITERATIONS`]).
+    pub tolerance: f32,
+    pub max_iterations: u32,
+    /// Warp with the paper's per-node rotations (Eq. 14–17) instead of per-element frames.
+    /// A research option (cargo feature `research`; without it `true` is refused): it is
+    /// unstable for cloth hanging in 3D and its force is not conservative (see README, "Limits").
+    pub per_node_warping: bool,
+    /// Rotation extraction iterations per node per substep (warm started), per-node warping
+    /// (0..=[`Settings::MAX_ROTATION_ITERATIONS`]).
+    pub rotation_iterations: u32,
+    /// Sleep when every vertex is slower than this (m/s) for `sleep_frames` steps.
+    pub sleep_velocity: f32,
+    pub sleep_frames: u32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            effects: effects::GRAVITY
+                | effects::BENDING
+                | effects::DAMPING
+                | effects::PINS
+                | effects::COLLISION
+                | effects::WARPING,
+            time_step: 1.0 / 60.0,
+            substeps: 1,
+            gravity: [0.0, 0.0, -9.81],
+            damping_mass: 0.1,
+            damping_stiffness: 0.001,
+            wind: [0.0; 3],
+            drag: 0.0,
+            tolerance: 1e-4,
+            max_iterations: 200,
+            per_node_warping: false,
+            rotation_iterations: 4,
+            sleep_velocity: 1e-3,
+            sleep_frames: 30,
+        }
+    }
+}
+
+impl Settings {
+    /// Largest accepted `max_iterations`: far beyond where block-Jacobi PCG stops gaining in
+    /// f32, and it bounds the cost of one step (a caller's `u32::MAX` would mean a step that
+    /// never ends on a system that does not converge).
+    pub const MAX_ITERATIONS: u32 = 10_000;
+    /// Largest accepted `substeps`.
+    pub const MAX_SUBSTEPS: u32 = 1000;
+    /// Largest accepted `rotation_iterations` (the extraction is warm started; a few suffice).
+    pub const MAX_ROTATION_ITERATIONS: u32 = 100;
+
+    /// Checks every field; `Err` names the first bad one.
+    pub fn validate(&self) -> Result<(), InitError> {
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        let bad = |field| Err(InitError::InvalidSetting { field });
+        if !(self.time_step.is_finite() && self.time_step > 0.0) {
+            return bad("time_step");
+        }
+        if self.substeps == 0 || self.substeps > Self::MAX_SUBSTEPS {
+            return bad("substeps");
+        }
+        if !finite(&self.gravity) {
+            return bad("gravity");
+        }
+        if !(self.damping_mass.is_finite() && self.damping_mass >= 0.0) {
+            return bad("damping_mass");
+        }
+        if !(self.damping_stiffness.is_finite() && self.damping_stiffness >= 0.0) {
+            return bad("damping_stiffness");
+        }
+        if !finite(&self.wind) {
+            return bad("wind");
+        }
+        if !(self.drag.is_finite() && self.drag >= 0.0) {
+            return bad("drag");
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return bad("tolerance");
+        }
+        if self.max_iterations == 0 || self.max_iterations > Self::MAX_ITERATIONS {
+            return bad("max_iterations");
+        }
+        if self.per_node_warping && !cfg!(feature = "research") {
+            return bad("per_node_warping");
+        }
+        if self.rotation_iterations > Self::MAX_ROTATION_ITERATIONS {
+            return bad("rotation_iterations");
+        }
+        if !(self.sleep_velocity.is_finite() && self.sleep_velocity >= 0.0) {
+            return bad("sleep_velocity");
+        }
+        if self.effects & !effects::ALL != 0 {
+            return bad("effects");
+        }
+        Ok(())
+    }
+}
+
