@@ -356,17 +356,10 @@ impl Element {
     /// sign).
     #[inline]
     pub fn corner_force(&self, a: usize, s: [f32; 3]) -> [f32; 2] {
-        self.corner_force_spun(a, s, 0.0)
-    }
-
-    /// `A Q ∇N_a` with `Q = τ + k J` (see [`spin_stress`]): corner `a`'s share of the in-frame
-    /// first Piola–Kirchhoff stress, i.e. the corotated force with the opposite sign.
-    #[inline]
-    pub fn corner_force_spun(&self, a: usize, s: [f32; 3], k: f32) -> [f32; 2] {
         let (gu, gv) = (self.grad[2 * a], self.grad[2 * a + 1]);
         [
-            self.area * (gu * s[0] + gv * (s[2] + k)),
-            self.area * (gv * s[1] + gu * (s[2] - k)),
+            self.area * (gu * s[0] + gv * s[2]),
+            self.area * (gv * s[1] + gu * s[2]),
         ]
     }
 
@@ -396,68 +389,6 @@ impl Element {
     }
 }
 
-/// The corotated frame of a triangle: the 3D images `(r0, r1)` of the rest u and v axes under
-/// the rotational part of its deformation gradient `F` (3×2). `F`'s columns are projected on
-/// the deformed plane (normal `f1 × f2`), and the 2×2 in-plane part is split by its closed-form
-/// polar decomposition (the rotation maximizing `tr(Rᵀ F₂)`). A collapsed triangle uses
-/// `fallback` as its normal.
-pub fn corotated_frame(grad: &[f32; 6], x: [Vec3A; 3], fallback: Vec3A) -> (Vec3A, Vec3A) {
-    let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
-    // Σ_a ∇N_a = 0, so F = Σ_a (x_a − x_0) ⊗ ∇N_a.
-    let f1 = e1 * grad[2] + e2 * grad[4];
-    let f2 = e1 * grad[3] + e2 * grad[5];
-    let cross = f1.cross(f2);
-    let scale = f1.length_squared() * f2.length_squared();
-    let n = if cross.length_squared() > 1e-12 * scale && scale > 0.0 {
-        cross.normalize()
-    } else {
-        fallback.try_normalize().unwrap_or(Vec3A::Z)
-    };
-    // an orthonormal basis (b1, b2) of the deformed plane
-    let p1 = f1 - n * n.dot(f1);
-    let b1 = match p1.try_normalize() {
-        Some(b) => b,
-        None => n.any_orthonormal_vector(),
-    };
-    let b2 = n.cross(b1);
-    let (a11, a12, a21, a22) = (b1.dot(f1), b1.dot(f2), b2.dot(f1), b2.dot(f2));
-    let angle = libm::atan2f(a21 - a12, a11 + a22);
-    let (s, c) = (libm::sinf(angle), libm::cosf(angle));
-    (b1 * c + b2 * s, b2 * c - b1 * s)
-}
-
-/// The rotation term of the corotated force, for any SPD `C`.
-///
-/// The corotated energy is `Ψ = ½ A eᵀ C e` with `e` the Biot strain of the stretch
-/// `S = R_eᵀ F` (`F` the 3×2 deformation gradient, `R_e` its polar rotation, `S` symmetric:
-/// `e = [S11 − 1, S22 − 1, 2 S12]`). Its exact gradient is `∂Ψ/∂x_a = A R_e Q ∇N_a` with the
-/// in-frame first Piola–Kirchhoff stress
-///
-/// ```text
-///     Q = τ + (S τ − τ S) / tr S,      τ = [[σ11, σ12], [σ12, σ22]],  σ = C e
-/// ```
-///
-/// (differentiate `S² = FᵀF`: `S dS + dS S = dFᵀF + FᵀdF`, solve that 2×2 Sylvester equation in
-/// closed form with Cayley–Hamilton, `S² = tr S · S − det S · I`; `det S` cancels). The
-/// commutator is antisymmetric, `k J` with `J = [[0, 1], [−1, 0]]`, and this returns `k`.
-/// It vanishes when `τ` commutes with `S` — always for isotropic `C`, which is why the classic
-/// corotated force `R_e τ ∇N_a` (Etzmuß et al. 2003) is exact there and only there. Dropping it
-/// for an anisotropic `C^H` gives forces that do work round closed loops and carry a net
-/// torque (a free cloth spins up by itself). In the small-strain limit `k = O(|e|²)`, so the
-/// linear response is still exactly `C^H`. `tr S > 0` unless the triangle has collapsed to a
-/// point, where the term is dropped.
-#[inline]
-pub fn spin_stress(e: [f32; 3], s: [f32; 3]) -> f32 {
-    // S = I + [[e0, e2/2], [e2/2, e1]]; (Sτ − τS)_12 = τ12 (S11 − S22) − S12 (τ11 − τ22).
-    let trace = 2.0 + e[0] + e[1];
-    let c = s[2] * (e[0] - e[1]) - 0.5 * e[2] * (s[0] - s[1]);
-    if trace > 1e-6 {
-        c / trace
-    } else {
-        0.0
-    }
-}
-
 /// Why the per-substep membrane assembly refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AssemblyError {
@@ -466,27 +397,91 @@ pub enum AssemblyError {
     MissingBlock,
 }
 
-/// Corotated membrane (the warped stiffness of §5.2 per element, Etzmuß et al. 2003): for every
-/// triangle with frame `R_e = [r0 r1]` (the polar rotation of its deformation gradient), the
-/// elastic force `f_a = −A R_e Q ∇N_a`, the exact gradient of the energy `½ A eᵀ C e` of the
-/// Biot strain `e` (with the rotation term of [`spin_stress`], so it is conservative and
-/// torque-free for any SPD `C`), is added to `force`. The Jacobian added to the 3×3 blocks
-/// (`diag`, `off` at the triangle's `slots`, which hold the block index of its pairs (0,1),
-/// (0,2), (1,2), with [`TRANSPOSED`] set when the pair is stored as (j, i)) is the documented
-/// SPD approximation `R_e K_ab R_eᵀ + A ∇N_aᵀ σ⁺ ∇N_b I`: the rotated linear stiffness (exact
-/// in the small-strain limit) plus the tensile geometric stiffness; the derivative of `R_e`
-/// and of the rotation term are left out (they are indefinite under compression). Element
-/// forces sum to zero (linear momentum is conserved exactly) and a rigid motion gives exactly
-/// zero force. `warping = false` is plain linear FEM (`R_e = I`).
+impl core::fmt::Display for AssemblyError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            AssemblyError::LengthMismatch => "slice lengths or triangle indices disagree",
+            AssemblyError::MissingBlock => "a triangle's block is missing from the pattern",
+        })
+    }
+}
+
+/// How the runtime membrane measures strain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strain {
+    /// Green strain `E = ½(FᵀF − I)` of the 3×2 deformation gradient `F`: a St Venant–Kirchhoff
+    /// membrane, invariant under any rotation (the warped stiffness of §5.2, exactly).
+    Green,
+    /// The small-strain `e = B u` of plain linear FEM, in the rest plane (for the accuracy
+    /// study: not rotation invariant).
+    Linear,
+}
+
+impl Element {
+    /// The columns `(f1, f2)` of the deformation gradient `F = Σ_a x_a ⊗ ∇N_a` of corners `x`
+    /// (from differences to corner 0, since `Σ_a ∇N_a = 0`: keeps f32 cancellation small).
+    #[inline]
+    pub fn deformation(&self, x: [Vec3A; 3]) -> (Vec3A, Vec3A) {
+        let g = &self.grad;
+        let (e1, e2) = (x[1] - x[0], x[2] - x[0]);
+        (e1 * g[2] + e2 * g[4], e1 * g[3] + e2 * g[5])
+    }
+
+    /// The membrane's strain `[e11, e22, 2 e12]` of corners `x`, and the two vectors `(d1, d2)`
+    /// through which it varies with them: `∂e/∂x_a` has rows `[a_u d1, a_v d2, a_u d2 + a_v d1]`
+    /// (`(a_u, a_v) = ∇N_a`). Green: `d = (f1, f2)`; linear: the rest axes.
+    #[inline]
+    fn measure(&self, x: [Vec3A; 3], strain: Strain) -> ([f32; 3], Vec3A, Vec3A) {
+        let (f1, f2) = self.deformation(x);
+        match strain {
+            Strain::Green => (
+                [
+                    0.5 * (f1.length_squared() - 1.0),
+                    0.5 * (f2.length_squared() - 1.0),
+                    f1.dot(f2),
+                ],
+                f1,
+                f2,
+            ),
+            Strain::Linear => ([f1.x - 1.0, f2.y - 1.0, f1.y + f2.x], Vec3A::X, Vec3A::Y),
+        }
+    }
+
+    /// `∂e/∂x_a` as its three rows.
+    #[inline]
+    fn strain_rows(&self, a: usize, d1: Vec3A, d2: Vec3A) -> [Vec3A; 3] {
+        let (u, v) = (
+            self.grad.get(2 * a).copied().unwrap_or(0.0),
+            self.grad.get(2 * a + 1).copied().unwrap_or(0.0),
+        );
+        [d1 * u, d2 * v, d2 * u + d1 * v]
+    }
+}
+
+/// The membrane of the coarse cloth (§5.1–5.2): for every triangle the energy
+/// `Ψ = ½ A eᵀ C e` of its strain `e` (Green by default, see [`Strain`]), its exact gradient
+/// `f_a = −A Σ_i σ_i ∂e_i/∂x_a` (σ = C e) added to `force`, and its Hessian
+///
+/// ```text
+///     K_ab = A (∂e/∂x_a)ᵀ C (∂e/∂x_b)  +  A (∇N_aᵀ Σ⁺ ∇N_b) I₃
+/// ```
+///
+/// added to the 3×3 blocks (`diag`, `off` at the triangle's `slots`, which hold the block index
+/// of its pairs (0,1), (0,2), (1,2), with [`TRANSPOSED`] set when the pair is stored as (j, i)).
+/// The first term is the material stiffness (PSD for SPD `C`); the second the geometric
+/// (initial-stress) stiffness with the stress tensor `Σ` clamped to its tensile part `Σ⁺`, so the
+/// Hessian is exact for a membrane in tension and its SPD approximation under compression
+/// (where a membrane buckles rather than resists). The energy depends on `FᵀF` only, so the
+/// forces carry no net force or torque and do no work round a closed loop for *any* SPD `C`;
+/// in the small-strain limit `K` is the linear FEM stiffness `A Bᵀ C B` (Eq. 10–11), so `C^H`
+/// is reproduced exactly (patch test). Returns the elastic energy (J).
 #[allow(clippy::too_many_arguments)]
-pub fn assemble_corotated(
+pub fn assemble(
     triangles: &[[u32; 3]],
     elements: &[Element],
     slots: &[[u32; 3]],
-    rest: &[Vec3A],
     x: &[Vec3A],
-    normals: &[Vec3A],
-    warping: bool,
+    strain: Strain,
     diag: &mut [Mat3A],
     off: &mut [Mat3A],
     force: &mut [Vec3A],
@@ -494,8 +489,6 @@ pub fn assemble_corotated(
     let n = x.len();
     if elements.len() != triangles.len()
         || slots.len() != triangles.len()
-        || rest.len() != n
-        || normals.len() != n
         || diag.len() != n
         || force.len() != n
     {
@@ -505,65 +498,63 @@ pub fn assemble_corotated(
     diag.fill(Mat3A::ZERO);
     off.fill(Mat3A::ZERO);
     force.fill(Vec3A::ZERO);
-    for ((tri, e), slot) in triangles.iter().zip(elements).zip(slots) {
-        let idx = tri.map(|i| i as usize);
-        if idx.iter().any(|&i| i >= n) {
-            return Err(AssemblyError::LengthMismatch);
-        }
-        let (r0, r1, d) = local_displacement(e, idx, rest, x, normals, warping);
-        let strain = e.strain(&d);
-        let stress = e.stress(strain);
-        // f_a = −A R_e Q ∇N_a: the exact gradient of the corotated energy (see `spin_stress`);
-        // linear FEM (no warping) has no rotation term.
-        let spin = if warping {
-            spin_stress(strain, stress)
-        } else {
-            0.0
+    for ((tri, el), slot) in triangles.iter().zip(elements).zip(slots) {
+        let xs = corners(tri, x)?;
+        let (e, d1, d2) = el.measure(xs, strain);
+        let s = el.stress(e);
+        energy += 0.5 * f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
+        let rows: [[Vec3A; 3]; 3] = core::array::from_fn(|a| el.strain_rows(a, d1, d2));
+        // C (∂e/∂x_b), row by row
+        let [c11, c22, c33, c12, c13, c23] = el.c;
+        let c_rows = |r: &[Vec3A; 3]| {
+            [
+                r[0] * c11 + r[1] * c12 + r[2] * c13,
+                r[0] * c12 + r[1] * c22 + r[2] * c23,
+                r[0] * c13 + r[1] * c23 + r[2] * c33,
+            ]
         };
-        for (a, &i) in idx.iter().enumerate() {
-            let s = e.corner_force_spun(a, stress, spin);
-            force[i] -= r0 * s[0] + r1 * s[1];
+        let t: [[Vec3A; 3]; 3] = core::array::from_fn(|b| c_rows(&rows[b]));
+        for (r, &i) in rows.iter().zip(tri) {
+            let f = force
+                .get_mut(i as usize)
+                .ok_or(AssemblyError::LengthMismatch)?;
+            *f -= (r[0] * s[0] + r[1] * s[1] + r[2] * s[2]) * el.area;
         }
-        energy += 0.5
-            * f64::from(
-                e.area * (stress[0] * strain[0] + stress[1] * strain[1] + stress[2] * strain[2]),
+        // Geometric stiffness `A ∇N_aᵀ Σ⁺ ∇N_b I3`, tension only: a taut membrane resists
+        // sideways motion only through it, and without it that resistance is integrated
+        // explicitly (a taut strip at 60 Hz goes unstable). Linear FEM has none.
+        let sp = match strain {
+            Strain::Green => tension(s),
+            Strain::Linear => [0.0; 3],
+        };
+        let g = &el.grad;
+        let geo = |a: usize, b: usize| {
+            let (ua, va, ub, vb) = (
+                g.get(2 * a).copied().unwrap_or(0.0),
+                g.get(2 * a + 1).copied().unwrap_or(0.0),
+                g.get(2 * b).copied().unwrap_or(0.0),
+                g.get(2 * b + 1).copied().unwrap_or(0.0),
             );
-        // Geometric (initial-stress) stiffness `A ∇N_aᵀ σ⁺ ∇N_b I3`, tension only. A taut
-        // membrane resists sideways motion only through the turning of its frames, which the
-        // rotated K leaves out; without this term that resistance is integrated explicitly and
-        // a taut cloth goes unstable once `h > h_e / sqrt(T/ρ)` (a twisted strip at 60 Hz).
-        // Keeping only the tensile part σ⁺ keeps the matrix positive semidefinite for CG.
-        let geo = if warping {
-            let g = &e.grad;
-            let s = tension(stress);
-            let k = |a: usize, b: usize| {
-                let (ua, va, ub, vb) = (g[2 * a], g[2 * a + 1], g[2 * b], g[2 * b + 1]);
-                e.area * (ua * (s[0] * ub + s[2] * vb) + va * (s[2] * ub + s[1] * vb))
-            };
-            [k(0, 0), k(1, 1), k(2, 2), k(0, 1), k(0, 2), k(1, 2)]
-        } else {
-            [0.0; 6]
+            el.area * (ua * (sp[0] * ub + sp[2] * vb) + va * (sp[2] * ub + sp[1] * vb))
         };
-        // R K_ab Rᵀ = [r0 r1] K_ab [r0 r1]ᵀ
-        let rotate = |k: [[f32; 2]; 2]| {
-            let u0 = r0 * k[0][0] + r1 * k[0][1];
-            let u1 = r0 * k[1][0] + r1 * k[1][1];
-            Mat3A::from_cols(
-                r0 * u0.x + r1 * u1.x,
-                r0 * u0.y + r1 * u1.y,
-                r0 * u0.z + r1 * u1.z,
-            )
+        let block = |a: usize, b: usize| {
+            let (ra, tb) = (&rows[a], &t[b]);
+            let m = outer(ra[0], tb[0]) + outer(ra[1], tb[1]) + outer(ra[2], tb[2]);
+            m * el.area + Mat3A::from_diagonal(glam::Vec3::splat(geo(a, b)))
         };
-        for a in 0..3 {
-            diag[idx[a]] += rotate(e.block(a, a)) + Mat3A::from_diagonal(glam::Vec3::splat(geo[a]));
+        for (a, &i) in tri.iter().enumerate() {
+            let d = diag
+                .get_mut(i as usize)
+                .ok_or(AssemblyError::LengthMismatch)?;
+            *d += block(a, a);
         }
         for (p, (a, b)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
-            let s = slot[p];
-            let m = rotate(e.block(a, b)) + Mat3A::from_diagonal(glam::Vec3::splat(geo[3 + p]));
-            let block = off
+            let s = slot.get(p).copied().unwrap_or(0);
+            let m = block(a, b);
+            let target = off
                 .get_mut((s & !TRANSPOSED) as usize)
                 .ok_or(AssemblyError::MissingBlock)?;
-            *block += if s & TRANSPOSED != 0 {
+            *target += if s & TRANSPOSED != 0 {
                 m.transpose()
             } else {
                 m
@@ -573,59 +564,41 @@ pub fn assemble_corotated(
     Ok(energy)
 }
 
-/// A triangle's corotated frame `(r0, r1)` and the in-plane displacement of its corners in
-/// that frame, relative to corner 0 (differences keep f32 cancellation small).
-#[inline]
-fn local_displacement(
-    e: &Element,
-    idx: [usize; 3],
-    rest: &[Vec3A],
-    x: &[Vec3A],
-    normals: &[Vec3A],
-    warping: bool,
-) -> (Vec3A, Vec3A, [[f32; 2]; 3]) {
-    let xs = idx.map(|i| x[i]);
-    let (r0, r1) = if warping {
-        let fallback = normals[idx[0]] + normals[idx[1]] + normals[idx[2]];
-        corotated_frame(&e.grad, xs, fallback)
-    } else {
-        (Vec3A::X, Vec3A::Y)
-    };
-    let d = core::array::from_fn(|a| {
-        let dx = xs[a] - xs[0];
-        let dr = rest[idx[a]] - rest[idx[0]];
-        [r0.dot(dx) - dr.x, r1.dot(dx) - dr.y]
-    });
-    (r0, r1, d)
-}
-
-/// The corotated elastic energy `Σ_e ½ dᵀ K_e d` (J) of the configuration `x`: what
-/// [`assemble_corotated`] returns, without assembling (the step's energy monitor).
+/// The elastic energy `Σ_e ½ A eᵀ C e` (J) of the configuration `x`: what [`assemble`]
+/// returns, without assembling (the step's energy balance).
 pub fn elastic_energy(
     triangles: &[[u32; 3]],
     elements: &[Element],
-    rest: &[Vec3A],
     x: &[Vec3A],
-    normals: &[Vec3A],
-    warping: bool,
+    strain: Strain,
 ) -> Result<f64, AssemblyError> {
-    let n = x.len();
-    if elements.len() != triangles.len() || rest.len() != n || normals.len() != n {
+    if elements.len() != triangles.len() {
         return Err(AssemblyError::LengthMismatch);
     }
     let mut energy = 0.0f64;
-    for (tri, e) in triangles.iter().zip(elements) {
-        let idx = tri.map(|i| i as usize);
-        if idx.iter().any(|&i| i >= n) {
-            return Err(AssemblyError::LengthMismatch);
-        }
-        let (_, _, d) = local_displacement(e, idx, rest, x, normals, warping);
-        let strain = e.strain(&d);
-        let s = e.stress(strain);
-        energy +=
-            0.5 * f64::from(e.area * (s[0] * strain[0] + s[1] * strain[1] + s[2] * strain[2]));
+    for (tri, el) in triangles.iter().zip(elements) {
+        let (e, _, _) = el.measure(corners(tri, x)?, strain);
+        let s = el.stress(e);
+        energy += 0.5 * f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
     }
     Ok(energy)
+}
+
+/// A triangle's corner positions, checked.
+#[inline]
+fn corners(tri: &[u32; 3], x: &[Vec3A]) -> Result<[Vec3A; 3], AssemblyError> {
+    let get = |i: u32| {
+        x.get(i as usize)
+            .copied()
+            .ok_or(AssemblyError::LengthMismatch)
+    };
+    Ok([get(tri[0])?, get(tri[1])?, get(tri[2])?])
+}
+
+/// `a bᵀ`.
+#[inline]
+fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
+    Mat3A::from_cols(a * b.x, a * b.y, a * b.z)
 }
 
 /// The tensile part of a membrane stress `[σ11, σ22, σ12]`: its principal values clamped at 0.
@@ -656,23 +629,6 @@ pub const TRANSPOSED: u32 = 1 << 31;
 #[cfg(test)]
 mod runtime_tests {
     use super::*;
-
-    #[test]
-    fn frame_of_rigid_motion_is_the_rotation() {
-        let uv = [[0.0, 0.0], [0.3, 0.05], [0.1, 0.4]];
-        let e = Element::new(uv, &isotropic(100.0, 0.3)).unwrap();
-        let q = glam::Quat::from_axis_angle(glam::Vec3::new(0.3, -1.0, 0.5).normalize(), 2.5);
-        let x = uv.map(|p| {
-            Vec3A::from(q * glam::Vec3::new(p[0] as f32, p[1] as f32, 0.0)) + Vec3A::splat(4.0)
-        });
-        let (r0, r1) = corotated_frame(&e.grad, x, Vec3A::Z);
-        assert!((r0 - Vec3A::from(q * glam::Vec3::X)).length() < 1e-5);
-        assert!((r1 - Vec3A::from(q * glam::Vec3::Y)).length() < 1e-5);
-        // a pure stretch has the identity frame
-        let x = uv.map(|p| Vec3A::new(1.2 * p[0] as f32, 0.9 * p[1] as f32, 0.0));
-        let (r0, r1) = corotated_frame(&e.grad, x, Vec3A::Z);
-        assert!((r0 - Vec3A::X).length() < 1e-6 && (r1 - Vec3A::Y).length() < 1e-6);
-    }
 
     #[test]
     fn tension_keeps_the_positive_principal_part() {
@@ -760,37 +716,28 @@ mod runtime_tests {
                 off: 3 * triangles.len(),
             }
         }
-        fn forces(&self, x: &[Vec3A]) -> Vec<Vec3A> {
+        fn assembled(&self, x: &[Vec3A]) -> (Vec<Vec3A>, Vec<Mat3A>, Vec<Mat3A>) {
             let n = x.len();
             let (mut diag, mut off) = (vec![Mat3A::ZERO; n], vec![Mat3A::ZERO; self.off]);
             let mut f = vec![Vec3A::ZERO; n];
-            let normals = vec![Vec3A::Z; n];
-            assemble_corotated(
+            assemble(
                 &self.triangles,
                 &self.elements,
                 &self.slots,
-                &self.rest,
                 x,
-                &normals,
-                true,
+                Strain::Green,
                 &mut diag,
                 &mut off,
                 &mut f,
             )
             .unwrap();
-            f
+            (f, diag, off)
+        }
+        fn forces(&self, x: &[Vec3A]) -> Vec<Vec3A> {
+            self.assembled(x).0
         }
         fn energy(&self, x: &[Vec3A]) -> f64 {
-            let normals = vec![Vec3A::Z; x.len()];
-            elastic_energy(
-                &self.triangles,
-                &self.elements,
-                &self.rest,
-                x,
-                &normals,
-                true,
-            )
-            .unwrap()
+            elastic_energy(&self.triangles, &self.elements, x, Strain::Green).unwrap()
         }
     }
 
@@ -837,7 +784,7 @@ mod runtime_tests {
     }
 
     #[test]
-    fn corotated_force_is_the_energy_gradient_for_any_spd_c() {
+    fn membrane_force_is_the_energy_gradient_for_any_spd_c() {
         let mut rng = Lcg(7);
         let uv = [[0.0, 0.0], [0.2, 0.03], [0.05, 0.17]];
         for c in materials(&mut rng) {
@@ -861,20 +808,22 @@ mod runtime_tests {
                         let mut xm = x.clone();
                         xp[i][k] += delta;
                         xm[i][k] -= delta;
-                        let fd = -(patch.energy(&xp) - patch.energy(&xm))
-                            / f64::from(2.0 * delta);
+                        let fd = -(patch.energy(&xp) - patch.energy(&xm)) / f64::from(2.0 * delta);
                         err += (fd - f64::from(f[i][k])).powi(2);
                         norm += fd * fd;
                     }
                 }
                 let rel = (err / norm).sqrt();
-                assert!(rel < 2e-3, "C = {c:?}, trial {trial}: force vs −∂E/∂x off by {rel}");
+                assert!(
+                    rel < 2e-3,
+                    "C = {c:?}, trial {trial}: force vs −∂E/∂x off by {rel}"
+                );
             }
         }
     }
 
     #[test]
-    fn corotated_forces_do_no_work_round_closed_loops() {
+    fn membrane_forces_do_no_work_round_closed_loops() {
         let mut rng = Lcg(11);
         let uv = [[0.0, 0.0], [0.2, 0.03], [0.05, 0.17]];
         for c in materials(&mut rng) {
@@ -882,10 +831,7 @@ mod runtime_tests {
             let q = glam::Quat::from_axis_angle(glam::Vec3::new(0.2, 1.0, -0.4).normalize(), 0.9);
             let x0 = deformed(&patch.rest, q);
             // corner 2 goes round a 1 cm circle in a plane oblique to the triangle
-            let (a, b) = (
-                Vec3A::new(0.01, 0.0, 0.004),
-                Vec3A::new(0.0, 0.008, 0.006),
-            );
+            let (a, b) = (Vec3A::new(0.01, 0.0, 0.004), Vec3A::new(0.0, 0.008, 0.006));
             let steps = 400;
             let mut work = 0.0f64;
             let at = |s: f64| {
@@ -910,7 +856,7 @@ mod runtime_tests {
     }
 
     #[test]
-    fn corotated_forces_carry_no_net_force_or_torque() {
+    fn membrane_forces_carry_no_net_force_or_torque() {
         let mut rng = Lcg(3);
         // a fan of 6 triangles round a centre vertex, crumpled at random in 3D
         let mut uv = vec![[0.0, 0.0]];
@@ -944,8 +890,76 @@ mod runtime_tests {
                     scale += (*p - centre).length() * fi.length();
                 }
                 let fmax = f.iter().map(|v| v.length()).fold(0.0, f32::max);
-                assert!(net.length() < 1e-5 * fmax * 7.0, "net force {net} (C = {c:?})");
-                assert!(torque.length() < 1e-5 * scale, "net torque {torque} of {scale} (C = {c:?})");
+                assert!(
+                    net.length() < 1e-5 * fmax * 7.0,
+                    "net force {net} (C = {c:?})"
+                );
+                assert!(
+                    torque.length() < 1e-5 * scale,
+                    "net torque {torque} of {scale} (C = {c:?})"
+                );
+            }
+        }
+    }
+
+    /// In tension the assembled blocks are the exact Hessian, `K = −∂f/∂x` (finite differences
+    /// of the force), for anisotropic `C` on turned axes; at rest they are linear FEM's `K_ab`.
+    #[test]
+    fn membrane_hessian_matches_the_force_derivative_in_tension() {
+        let mut rng = Lcg(5);
+        let uv = [[0.0, 0.0], [0.2, 0.03], [0.05, 0.17]];
+        for c in materials(&mut rng) {
+            let patch = Patch::new(&uv, &[[0, 1, 2]], &c);
+            // stretched in both directions (all principal stresses tensile), turned in 3D
+            let q = glam::Quat::from_axis_angle(glam::Vec3::new(0.4, -0.2, 1.0).normalize(), 0.7);
+            let x: Vec<Vec3A> = patch
+                .rest
+                .iter()
+                .map(|p| Vec3A::from(q * glam::Vec3::new(1.2 * p.x + 0.05 * p.y, 1.1 * p.y, 0.0)))
+                .collect();
+            let (_, diag, off) = patch.assembled(&x);
+            let block = |a: usize, b: usize| -> Mat3A {
+                match (a, b) {
+                    _ if a == b => diag[a],
+                    (0, 1) => off[0],
+                    (0, 2) => off[1],
+                    (1, 2) => off[2],
+                    (1, 0) => off[0].transpose(),
+                    (2, 0) => off[1].transpose(),
+                    _ => off[2].transpose(),
+                }
+            };
+            let delta = 1e-4f32;
+            let (mut err, mut norm) = (0.0f64, 0.0f64);
+            for b in 0..3 {
+                for k in 0..3 {
+                    let (mut xp, mut xm) = (x.clone(), x.clone());
+                    xp[b][k] += delta;
+                    xm[b][k] -= delta;
+                    let (fp, fm) = (patch.forces(&xp), patch.forces(&xm));
+                    for a in 0..3 {
+                        let fd = -(fp[a] - fm[a]) / (2.0 * delta);
+                        let want = block(a, b).col(k);
+                        err += f64::from((fd - want).length_squared());
+                        norm += f64::from(want.length_squared());
+                    }
+                }
+            }
+            let rel = (err / norm).sqrt();
+            assert!(rel < 5e-3, "C = {c:?}: K vs −∂f/∂x off by {rel}");
+            // at rest: the linear FEM stiffness, in the sheet's plane
+            let rest = patch.rest.clone();
+            let (_, diag, off) = patch.assembled(&rest);
+            let e = &patch.elements[0];
+            for (m, (a, b)) in [(diag[1], (1, 1)), (off[2], (1, 2))] {
+                let k = e.block(a, b);
+                let scale = k.iter().flatten().fold(0.0f32, |s, v| s.max(v.abs()));
+                for r in 0..2 {
+                    for s in 0..2 {
+                        assert!((m.col(s)[r] - k[r][s]).abs() <= 1e-5 * scale);
+                    }
+                    assert!(m.col(2)[r].abs() <= 1e-5 * scale && m.col(r)[2].abs() <= 1e-5 * scale);
+                }
             }
         }
     }

@@ -151,8 +151,16 @@ pub(crate) fn solve(
         None
     };
     let dv = &mut a.dv[..n];
-    let stats = pcg::solve(&op, &a.precond[..n], filter, &a.rhs[..n], dv, settings, work)
-        .map_err(|_| StepError::SolverBreakdown)?;
+    let stats = pcg::solve(
+        &op,
+        &a.precond[..n],
+        filter,
+        &a.rhs[..n],
+        dv,
+        settings,
+        work,
+    )
+    .map_err(|_| StepError::SolverBreakdown)?;
     if constrained {
         op.apply(dv, &mut a.w_q[..n]);
     }

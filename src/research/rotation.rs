@@ -261,7 +261,6 @@ fn rest_ring(ring_start: &[u32], ring: &[u32], mass: &[f32], rest: &[Vec3A], i: 
     }
 }
 
-
 /// Update every node's rotation `R_i` (Eq. 14–16) from the current positions `x` and vertex
 /// normals `normals` (see [`crate::normals::vertex_normals`]), warm-starting from `rot`.
 ///
@@ -918,7 +917,6 @@ mod tests {
             );
         }
     }
-
 
     #[test]
     fn rest_rings_values_and_validation() {

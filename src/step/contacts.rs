@@ -56,7 +56,9 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
                 let vn_rel = (vi - vs).dot(prox.normal);
                 // predicted distance at the end of the substep
                 let predicted = prox.distance + h * vn_rel;
-                if predicted < col.thickness + slop(col.thickness) && prox.distance - col.thickness < deepest {
+                if predicted < col.thickness + slop(col.thickness)
+                    && prox.distance - col.thickness < deepest
+                {
                     deepest = prox.distance - col.thickness;
                     let nrm = prox.normal;
                     // end the substep on the offset surface, moving with the collider

@@ -5,7 +5,7 @@
 //!     [(1 + hα) M + (hβ + h²) K_w] Δv = h (f − (β + h) K_w v)
 //! ```
 //!
-//! with `f` the corotated membrane force (`membrane.rs`), hinge bending `−B Q x`
+//! with `f` the membrane force (`membrane.rs`), hinge bending `−B Q x`
 //! (`bending.rs`), gravity, wind and Rayleigh damping `D = αM + βK_w`. The membrane Jacobian
 //! `K_w` is assembled into the world's 3×3 blocks here; [`super::system`] folds mass, bending
 //! and drag into them.
@@ -40,8 +40,8 @@ pub(crate) fn accumulate(
     if per_node {
         #[cfg(feature = "research")]
         crate::research::per_node::update_rotations(a, c, st.rotation_iterations);
-    } else if warping || eff & effects::WIND != 0 {
-        // The fallback frame normal of collapsed triangles, and the wind's direction.
+    } else if eff & effects::WIND != 0 {
+        // The wind's direction.
         normals::vertex_normals(
             &a.triangles[..c.nt],
             &a.tri_sign[..c.nt],
@@ -50,16 +50,14 @@ pub(crate) fn accumulate(
         )
         .map_err(|_| StepError::SolverBreakdown)?;
     }
-    // Membrane: corotated elements (or plain linear FEM; or, for per-node warping, the
-    // unrotated K that Eq. 17 rotates node by node).
-    let elastic = membrane::assemble_corotated(
+    // Membrane: Green strain (or plain linear FEM; or, for per-node warping, the unrotated
+    // K that Eq. 17 rotates node by node).
+    let elastic = membrane::assemble(
         &a.triangles[..c.nt],
         &a.elements[..c.nt],
         &a.slots[..c.nt],
-        &a.rest[..n],
         &a.x[..n],
-        &a.normals[..n],
-        warping && !per_node,
+        membrane_strain(warping && !per_node),
         &mut a.k_diag[..n],
         &mut a.k_off[..c.nnz],
         &mut a.force[..n],
@@ -109,6 +107,16 @@ pub(crate) fn accumulate(
         *r = f * h;
     }
     Ok(elastic)
+}
+
+/// The membrane's strain measure: Green (rotation invariant) when the scene warps, linear FEM
+/// otherwise.
+pub(crate) fn membrane_strain(warping: bool) -> membrane::Strain {
+    if warping {
+        membrane::Strain::Green
+    } else {
+        membrane::Strain::Linear
+    }
 }
 
 /// `rhs = f − c_kv (K_w + B Q) v` with the element-assembled `K_w` (`w_r` holds the product).

@@ -34,7 +34,7 @@ pub(crate) struct Level {
     pub noise: f64,
 }
 
-/// Kinetic + elastic (corotated, as the step's forces see it) + bending energy of the current
+/// Kinetic + elastic (as the step's forces see it) + bending energy of the current
 /// state, with a bound on its `f32` round-off.
 pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Level {
     let n = c.n;
@@ -42,10 +42,8 @@ pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Level {
     let elastic = membrane::elastic_energy(
         &a.triangles[..c.nt],
         &a.elements[..c.nt],
-        &a.rest[..n],
         &a.x[..n],
-        &a.normals[..n],
-        eff & effects::WARPING != 0,
+        super::forces::membrane_strain(eff & effects::WARPING != 0),
     )
     .unwrap_or(0.0);
     let (bending, bending_noise) = if eff & effects::BENDING != 0 {

@@ -39,7 +39,11 @@ pub(crate) fn solve(
         return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
     }
     let bending_on = eff & effects::BENDING != 0;
-    let drag = if eff & effects::WIND != 0 { st.drag } else { 0.0 };
+    let drag = if eff & effects::WIND != 0 {
+        st.drag
+    } else {
+        0.0
+    };
     for (k, q) in a.k_off[..c.nnz].iter_mut().zip(&a.q_off[..c.nnz]) {
         let b = if bending_on { *q } else { 0.0 };
         *k = (*k + Mat3A::from_diagonal(Vec3::splat(b))) * c_k;

@@ -122,12 +122,15 @@ pub enum EditError {
     InvalidCollider,
 }
 
-
 impl fmt::Display for InitError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            InitError::MemoryTooSmall => f.write_str("the memory block is smaller than the capacity needs"),
-            InitError::CapacityTooLarge => f.write_str("the capacity does not fit in memory addresses"),
+            InitError::MemoryTooSmall => {
+                f.write_str("the memory block is smaller than the capacity needs")
+            }
+            InitError::CapacityTooLarge => {
+                f.write_str("the capacity does not fit in memory addresses")
+            }
             InitError::VertexCapacity { needed, capacity } => {
                 write!(f, "{needed} vertices exceed the capacity of {capacity}")
             }
@@ -140,10 +143,16 @@ impl fmt::Display for InitError {
             InitError::Mesh(e) => write!(f, "invalid mesh: {e:?}"),
             InitError::MaterialCount => f.write_str("materials and triangles differ in count"),
             InitError::MaterialOutOfRange { triangle, material } => {
-                write!(f, "triangle {triangle} names material {material}, which does not exist")
+                write!(
+                    f,
+                    "triangle {triangle} names material {material}, which does not exist"
+                )
             }
             InitError::InvalidMaterial { material } => {
-                write!(f, "material {material} is unusable (non-finite, not SPD, or beyond f32)")
+                write!(
+                    f,
+                    "material {material} is unusable (non-finite, not SPD, or beyond f32)"
+                )
             }
             InitError::InvalidSetting { field } => write!(f, "setting `{field}` is out of range"),
             InitError::Internal => f.write_str("internal consistency check failed"),
@@ -159,7 +168,9 @@ impl fmt::Display for StepError {
                 write!(f, "the pin of vertex {vertex} has a non-finite target")
             }
             StepError::SolverBreakdown => f.write_str("the linear solver broke down"),
-            StepError::NonFiniteState => f.write_str("the step produced non-finite positions or velocities"),
+            StepError::NonFiniteState => {
+                f.write_str("the step produced non-finite positions or velocities")
+            }
             StepError::Unstable => f.write_str("the step created energy that nothing supplied"),
         }
     }

@@ -582,7 +582,6 @@ impl<'a> World<'a> {
         self.wake();
     }
 
-
     // ----- stepping -----
 
     /// Advances by `settings.time_step`.
@@ -745,8 +744,8 @@ impl<'a> World<'a> {
         }
     }
 
-    /// The cloth's mechanical energy (J): kinetic, corotated elastic (per element, as the
-    /// step's own forces see it), bending and gravitational (if on).
+    /// The cloth's mechanical energy (J): kinetic, elastic (as the step's own forces see it),
+    /// bending and gravitational (if on).
     pub fn energy(&mut self) -> Energy {
         let n = self.n;
         let eff = self.settings.effects;
@@ -754,10 +753,8 @@ impl<'a> World<'a> {
         let elastic = membrane::elastic_energy(
             &a.triangles[..self.nt],
             &a.elements[..self.nt],
-            &a.rest[..n],
             &a.x[..n],
-            &a.normals[..n],
-            eff & effects::WARPING != 0,
+            step::forces::membrane_strain(eff & effects::WARPING != 0),
         )
         .unwrap_or(0.0);
         let bending = if eff & effects::BENDING != 0 {
@@ -824,14 +821,12 @@ impl<'a> World<'a> {
         let warping = self.settings.effects & effects::WARPING != 0;
         let per_node = warping && self.settings.per_node_warping;
         let a = &mut self.a;
-        let ok = membrane::assemble_corotated(
+        let ok = membrane::assemble(
             &a.triangles[..self.nt],
             &a.elements[..self.nt],
             &a.slots[..self.nt],
-            &a.rest[..n],
             &a.x[..n],
-            &a.normals[..n],
-            warping && !per_node,
+            step::forces::membrane_strain(warping && !per_node),
             &mut a.k_diag[..n],
             &mut a.k_off[..self.nnz],
             &mut out[..n],
@@ -863,4 +858,3 @@ fn triangle_of(
             .is_some_and(|tri| corners.iter().all(|c| tri.contains(c)))
     })
 }
-

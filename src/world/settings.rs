@@ -2,7 +2,6 @@
 
 use super::InitError;
 
-
 /// Scene effects, a bit set. An effect that is off costs nothing in the step.
 pub mod effects {
     pub const GRAVITY: u32 = 1 << 0;
@@ -137,4 +136,3 @@ impl Settings {
         Ok(())
     }
 }
-
