@@ -101,13 +101,13 @@ unsafe fn set_vec3s(
                 w.world.set_positions_strided(&src)
             };
             // The kernel checks every value first; the detail names the first bad vertex.
-            let first_bad =
-                || (0..n).find(|&i| !src.get(i).is_some_and(|p| p.iter().all(|c| c.is_finite())));
-            r.map_err(|e| match (e, first_bad()) {
-                (EditError::NonFinite, Some(i)) => {
-                    fault(WeftResult::NonFinite).what(what).vertex(count32(i))
+            r.map_err(|e| match e {
+                EditError::NonFinite => {
+                    let finite = |i| src.get(i).is_some_and(|p| p.iter().all(|c| c.is_finite()));
+                    let vertex = (0..n).find(|&i| !finite(i)).map_or(WEFT_NONE, count32);
+                    fault(WeftResult::NonFinite).what(what).vertex(vertex)
                 }
-                (e, _) => edit_fault(e, &w.world),
+                e => edit_fault(e, &w.world),
             })
         })
     }
