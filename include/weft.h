@@ -124,22 +124,9 @@
 #define WEFT_EFFECT_SLEEP (1 << 7)
 
 /**
- * Effect bit for localization (the fine pattern put back on the coarse cloth). Localization is
- * the caller's to run (`weft_localize`); the bit is carried in the settings so one effect set
- * describes a scene. Neither the step nor `weft_localize` reads it.
- */
-#define WEFT_EFFECT_LOCALIZE (1 << 8)
-
-/**
- * Effect bit for recomputed render normals (`WEFT_NORMALS_RECOMPUTED`), carried like
- * `WEFT_EFFECT_LOCALIZE`: neither the step nor `weft_localize` reads it.
- */
-#define WEFT_EFFECT_NORMALS (1 << 9)
-
-/**
  * Every effect bit; any other bit set is `WEFT_RESULT_INVALID_SETTING`.
  */
-#define WEFT_EFFECT_ALL ((1 << 10) - 1)
+#define WEFT_EFFECT_ALL ((1 << 8) - 1)
 
 /**
  * `WeftShape.kind`: a half-space, solid where `dot(normal, x) < offset`.
@@ -204,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 4186656
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3975728
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
@@ -784,12 +771,6 @@ typedef struct WeftSettings {
      */
     uint32_t max_iterations;
     /**
-     * 1: warp with per-node rotations (the paper's Eq. 14–17, for comparison only: unstable
-     * for cloth hanging in 3D); 0: per-element rotations. Any other value is
-     * `WEFT_RESULT_INVALID_SETTING`. Default 0.
-     */
-    uint32_t per_node_warping;
-    /**
      * Rotation iterations per node per substep (per-node warping only), 0..=100. Default 4.
      */
     uint32_t rotation_iterations;
@@ -1106,7 +1087,7 @@ struct WeftShape weft_shape_capsule(struct WeftVec3 a, struct WeftVec3 b, float 
 struct WeftShape weft_shape_shell(struct WeftVec3 center, float radius);
 
 /**
- * Bytes a world of `*capacity` needs (header, arrays and create-time scratch), a multiple of
+ * Bytes a world of `*capacity` needs (header and arrays), a multiple of
  * `WEFT_WORLD_MEMORY_ALIGN`, in `*out_size`.
  *
  * # Safety

@@ -31,7 +31,7 @@ fn on_panic(_: &core::panic::PanicInfo<'_>) -> ! {
 }
 // A non-LTO no_std static library can keep a reference to the unwinding personality from the
 // precompiled `core` (rust-lang/rust#56152) although nothing unwinds; this stub resolves it.
-// It is outside `ffi.rs`, so cbindgen never sees it.
+// It is outside `src/ffi/`, so cbindgen never sees it.
 #[cfg(all(not(feature = "std"), not(test), panic = "abort"))]
 #[no_mangle]
 extern "C" fn rust_eh_personality() {}

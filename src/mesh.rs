@@ -6,6 +6,7 @@
 //! `x0 = (u, v, 0)`: a flat sheet, so hinges are flat at rest and the rest normal is `+z`.
 
 use crate::membrane;
+use crate::strided::Strided;
 
 /// Marks a missing second triangle on a boundary edge.
 pub const NONE: u32 = u32::MAX;
@@ -82,18 +83,36 @@ pub fn validate(
     triangles: &[[u32; 3]],
     tri_sign: &mut [f32],
 ) -> Result<(), MeshError> {
+    validate_strided(
+        &Strided::from_slice(positions),
+        &Strided::from_slice(uvs),
+        triangles,
+        tri_sign,
+    )
+}
+
+/// [`validate`] with positions and (u, v) read in place from strided vertex buffers.
+pub fn validate_strided(
+    positions: &Strided<'_, 3>,
+    uvs: &Strided<'_, 2>,
+    triangles: &[[u32; 3]],
+    tri_sign: &mut [f32],
+) -> Result<(), MeshError> {
     if positions.is_empty() || triangles.is_empty() {
         return Err(MeshError::Empty);
     }
-    if uvs.len() != positions.len() || tri_sign.len() < triangles.len() {
+    if uvs.count() != positions.count() || tri_sign.len() < triangles.len() {
         return Err(MeshError::BufferTooSmall);
     }
-    for (v, (p, uv)) in positions.iter().zip(uvs).enumerate() {
-        if p.iter().chain(uv.iter()).any(|c| !c.is_finite()) {
+    let n = positions.count();
+    for v in 0..n {
+        let (p, uv) = (positions.get(v), uvs.get(v));
+        let finite = |c: &f32| c.is_finite();
+        if !(p.is_some_and(|p| p.iter().all(finite)) && uv.is_some_and(|uv| uv.iter().all(finite)))
+        {
             return Err(MeshError::NonFinite { vertex: v as u32 });
         }
     }
-    let n = positions.len();
     for (t, (tri, sign)) in triangles.iter().zip(tri_sign.iter_mut()).enumerate() {
         let triangle = t as u32;
         if tri.iter().any(|&i| i as usize >= n) {
@@ -103,7 +122,14 @@ pub fn validate(
         if a == b || b == c || a == c {
             return Err(MeshError::RepeatedVertex { triangle });
         }
-        let (ua, ub, uc) = (uvs[a as usize], uvs[b as usize], uvs[c as usize]);
+        let corner = |i: u32| {
+            let out = MeshError::IndexOutOfRange { triangle };
+            Ok::<_, MeshError>((
+                uvs.get(i as usize).ok_or(out)?,
+                positions.get(i as usize).ok_or(out)?,
+            ))
+        };
+        let ((ua, pa), (ub, pb), (uc, pc)) = (corner(a)?, corner(b)?, corner(c)?);
         let f = |p: [f32; 2]| [p[0] as f64, p[1] as f64];
         if membrane::gradients([f(ua), f(ub), f(uc)]).is_none() {
             return Err(MeshError::DegenerateUv { triangle });
@@ -111,9 +137,9 @@ pub fn validate(
         let area2 = (ub[0] - ua[0]) * (uc[1] - ua[1]) - (uc[0] - ua[0]) * (ub[1] - ua[1]);
         *sign = if area2 > 0.0 { 1.0 } else { -1.0 };
         let (pa, pb, pc) = (
-            glam::Vec3A::from(positions[a as usize]),
-            glam::Vec3A::from(positions[b as usize]),
-            glam::Vec3A::from(positions[c as usize]),
+            glam::Vec3A::from(pa),
+            glam::Vec3A::from(pb),
+            glam::Vec3A::from(pc),
         );
         let cross = (pb - pa).cross(pc - pa).length();
         let longest = (pb - pa)

@@ -108,6 +108,7 @@ pub fn vertex_normals(
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
 mod tests {
     use super::*;
     use glam::Mat3A;

@@ -472,7 +472,6 @@ fn c_layout_matches_rust() {
         drag,
         tolerance,
         max_iterations,
-        per_node_warping,
         rotation_iterations,
         sleep_velocity,
         sleep_frames

@@ -210,11 +210,9 @@ fn memory_size_is_checked_and_affine_in_the_capacity() {
             unsafe { weft_world_memory_size(&c_cap, &mut size) },
             WeftResult::Ok
         );
-        let expected = (((WEFT_WORLD_HEADER_SIZE + k.world_bytes() + 3) & !3)
-            + v as usize * 20
-            + t as usize * 16
-            + 15)
-            & !15;
+        // The header and the kernel's arrays: no staging area (the kernel reads the caller's
+        // strided input in place).
+        let expected = (WEFT_WORLD_HEADER_SIZE + k.world_bytes() + 15) & !15;
         assert_eq!(size, expected);
     }
     assert_eq!(weft_world_memory_align(), WEFT_WORLD_MEMORY_ALIGN);
@@ -546,11 +544,6 @@ fn create_checks_strides_buffers_and_settings() {
             Box::new(|d| d.settings.rotation_iterations = 101),
             WeftResult::InvalidSetting,
             "rotation_iterations",
-        ),
-        (
-            Box::new(|d| d.settings.per_node_warping = 2),
-            WeftResult::InvalidSetting,
-            "per_node_warping",
         ),
         (
             Box::new(|d| d.settings.sleep_velocity = -1.0),

@@ -1,8 +1,8 @@
-//! `include/weft.h` is generated from `src/ffi.rs` by cbindgen (the exact version is pinned in
-//! Cargo.toml; it runs here through its library API, never in build.rs) and committed. These
-//! tests regenerate it and fail when the committed one is stale (`WEFT_BLESS=1 cargo test
-//! --test header` rewrites it), check that every declaration in it is documented, and that its
-//! literal constants agree with the kernel.
+//! `include/weft.h` is generated from the `src/ffi/` folder by cbindgen (the exact version is
+//! pinned in Cargo.toml; it runs here through its library API, never in build.rs) and
+//! committed. These tests regenerate it and fail when the committed one is stale
+//! (`WEFT_BLESS=1 cargo test --test header` rewrites it), check that every declaration in it is
+//! documented, and that its literal constants agree with the kernel.
 
 use std::path::{Path, PathBuf};
 
@@ -22,9 +22,9 @@ fn generate() -> String {
         .expect("cbindgen.toml is a valid cbindgen configuration");
     let bindings = cbindgen::Builder::new()
         .with_config(config)
-        .with_src(root().join("src").join("ffi.rs"))
+        .with_src(root().join("src").join("ffi").join("mod.rs"))
         .generate()
-        .expect("cbindgen generates the header from src/ffi.rs");
+        .expect("cbindgen generates the header from src/ffi/");
     let mut out = Vec::new();
     bindings.write(&mut out);
     String::from_utf8(out).expect("the header is UTF-8")
@@ -51,7 +51,7 @@ fn header_is_current() {
                 |i| i + 1,
             );
         panic!(
-            "{} is stale (first difference at line {line}): src/ffi.rs or cbindgen.toml changed. \
+            "{} is stale (first difference at line {line}): src/ffi/ or cbindgen.toml changed. \
              Regenerate it with `WEFT_BLESS=1 cargo test --test header` and commit it.",
             path.display()
         );
@@ -118,9 +118,9 @@ fn default_capacity_matches_the_kernel() {
 }
 
 /// The literal in the header is what `weft_world_memory_size` says for the default capacity:
-/// the reserved header, `Capacity::DEFAULT.world_bytes()`, the create-time scratch area, all
-/// rounded up to the block alignment. When the kernel's arrays change, update the literal and
-/// bless the header.
+/// the reserved header and `Capacity::DEFAULT.world_bytes()`, rounded up to the block
+/// alignment (nothing else: the kernel reads the caller's strided input in place). When the
+/// kernel's arrays change, update the literal and bless the header.
 #[test]
 fn default_world_memory_size_matches_the_kernel() {
     let cap = weft_default_capacity();
@@ -128,14 +128,13 @@ fn default_world_memory_size_matches_the_kernel() {
     let r = unsafe { weft_world_memory_size(&cap, &mut size) };
     assert_eq!(r, WeftResult::Ok);
     let d = Capacity::DEFAULT;
-    let scratch = d.vertices as usize * 20 + d.triangles as usize * 16;
-    let expected = (((WEFT_WORLD_HEADER_SIZE + d.world_bytes() + 3) & !3) + scratch + 15) & !15;
+    let expected = (WEFT_WORLD_HEADER_SIZE + d.world_bytes() + 15) & !15;
     assert_eq!(size, expected);
     if cfg!(target_pointer_width = "64") {
         assert_eq!(
             WEFT_DEFAULT_WORLD_MEMORY_SIZE,
             expected,
-            "update WEFT_DEFAULT_WORLD_MEMORY_SIZE in src/ffi.rs to {expected} \
+            "update WEFT_DEFAULT_WORLD_MEMORY_SIZE in src/ffi/mod.rs to {expected} \
              (Capacity::DEFAULT.world_bytes() = {}) and bless the header",
             d.world_bytes()
         );

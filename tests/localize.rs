@@ -9,14 +9,15 @@ mod common;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+use bytemuck::Zeroable;
 use common::*;
 use glam::{Mat3A, Vec3A};
 use weft::blob::{AlignedBytes, Blob};
 use weft::collide::{Collider, Shape};
 use weft::localize::{
-    bind, bind_to_triangle, bindings_needed, localize, prepare, prepare_mesh, recompute_normals,
-    tiled_mesh, tiled_mesh_counts, BindError, Binding, LocalizeError, NormalTarget, StrainMeasure,
-    VertexFrame,
+    bind, bind_to_triangle, bindings_needed, blocks, localize, localize_recomputed, prepare,
+    prepare_mesh, recompute_normals, tiled_mesh, tiled_mesh_counts, BindError, Binding,
+    LocalizeError, NormalTarget, StrainMeasure, VertexFrame,
 };
 use weft::strided::{StrideError, Strided, StridedMut};
 use weft::world::{Materials, Settings, World};
@@ -903,4 +904,117 @@ fn binding_chi_interpolates_the_cell() {
             b.chi[k]
         );
     }
+}
+
+/// Every check comes before any write: a bad binding late in the range, or a bad fine
+/// triangle, leaves every output byte as it was (the kernel's own all-or-nothing guarantee,
+/// which the C API relies on).
+#[test]
+fn localize_writes_nothing_on_any_error() {
+    let blob = blob();
+    let sheet = sheet_of(5, 0.03, 0);
+    let mut mem = memory(&sheet.capacity());
+    let w = blob_world(&mut mem, &sheet, &blob, settings_quiet());
+    let (uv, tris, _) = tiled(&w, &blob, 0);
+    let mut b = bind_all(&w, &blob, &uv);
+    let frames = frames_of(&w, StrainMeasure::Corotated);
+    let n = uv.len();
+    let last = n - 1;
+    b[last].triangle = w.triangle_count() as u32;
+    let pristine = vec![7.0f32; n * 8];
+    let mut buf = pristine.clone();
+    let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut buf);
+    let mut pos = StridedMut::<3>::new(bytes, 32, n).unwrap();
+    for normals in [None, Some(NormalTarget::Interleaved { offset: 12 })] {
+        assert_eq!(
+            localize(&frames, w.triangles(), &b, 0, &mut pos, normals),
+            Err(LocalizeError::BadBinding { index: last })
+        );
+    }
+    let target = NormalTarget::Interleaved { offset: 12 };
+    assert_eq!(
+        localize_recomputed(&frames, w.triangles(), &b, 0, &mut pos, &tris, target),
+        Err(LocalizeError::BadBinding { index: last })
+    );
+    // good bindings, one fine triangle out of the range
+    let good = bind_all(&w, &blob, &uv);
+    let mut bad_tris = tris.clone();
+    bad_tris[3][1] = n as u32;
+    let target = NormalTarget::Interleaved { offset: 12 };
+    assert_eq!(
+        localize_recomputed(
+            &frames,
+            w.triangles(),
+            &good,
+            0,
+            &mut pos,
+            &bad_tris,
+            target
+        ),
+        Err(LocalizeError::BadTriangle { triangle: 3 })
+    );
+    assert_eq!(buf, pristine);
+    // and the combined call equals localize followed by recompute_normals
+    let mut a = vec![[0.0f32; 3]; n];
+    let mut an = vec![[0.0f32; 3]; n];
+    let (mut c, mut cn) = (a.clone(), an.clone());
+    let mut ap = StridedMut::from_slice(&mut a);
+    localize(&frames, w.triangles(), &good, 0, &mut ap, None).unwrap();
+    let mut anv = StridedMut::from_slice(&mut an);
+    recompute_normals(&tris, &mut ap, NormalTarget::Buffer(&mut anv)).unwrap();
+    let mut cp = StridedMut::from_slice(&mut c);
+    let mut cnv = StridedMut::from_slice(&mut cn);
+    let target = NormalTarget::Buffer(&mut cnv);
+    localize_recomputed(&frames, w.triangles(), &good, 0, &mut cp, &tris, target).unwrap();
+    assert_eq!((a, an), (c, cn));
+}
+
+/// The blocks the C API hands out are the kernel's: binding into a block and reading it back
+/// gives the records `bind` writes; frames prepared into a block are refused by another world.
+#[test]
+fn bindings_and_frames_blocks_round_trip() {
+    let blob = blob();
+    let sheet = sheet_of(4, 0.03, 0);
+    let mut mem = memory(&sheet.capacity());
+    let w = blob_world(&mut mem, &sheet, &blob, settings_quiet());
+    let (uv, _, _) = tiled(&w, &blob, 0);
+    let key = blocks::cloth_key(&w, &blob);
+    let size = blocks::bindings_bytes(uv.len()).unwrap();
+    let mut words = vec![0u32; size / 4];
+    let block: &mut [u8] = bytemuck::cast_slice_mut(&mut words);
+    assert_eq!(
+        blocks::bind_block(
+            &w,
+            &blob,
+            key,
+            &Strided::from_slice(&uv),
+            &mut block[..size - 1]
+        ),
+        Err(blocks::BlockError::TooSmall {
+            needed: uv.len(),
+            room: uv.len() - 1
+        })
+    );
+    blocks::bind_block(&w, &blob, key, &Strided::from_slice(&uv), block).unwrap();
+    let (k, records) = blocks::read_bindings(block).unwrap();
+    assert_eq!((k, records), (key, &bind_all(&w, &blob, &uv)[..]));
+
+    let mut header = blocks::FramesHeader::zeroed();
+    assert_eq!(header.check(&w, key), Err(blocks::BlockError::NotPrepared));
+    let mut frames = vec![VertexFrame::REST; w.vertex_count()];
+    blocks::prepare_block(&w, key, StrainMeasure::Corotated, &mut header, &mut frames).unwrap();
+    assert_eq!(header.check(&w, key), Ok(()));
+    assert_eq!(frames, frames_of(&w, StrainMeasure::Corotated));
+    assert_eq!(
+        header.check(&w, key ^ 1),
+        Err(blocks::BlockError::OtherWorld)
+    );
+    let mut mem2 = memory(&sheet.capacity());
+    let twin = blob_world(&mut mem2, &sheet, &blob, settings_quiet());
+    assert_eq!(
+        header.check(&twin, key),
+        Err(blocks::BlockError::OtherWorld)
+    );
+    let copy = header;
+    assert_eq!(copy.check(&w, key), Err(blocks::BlockError::NotPrepared));
 }

@@ -7,8 +7,10 @@ use common::*;
 use glam::{Quat, Vec3A};
 use weft::collide::{Collider, Shape};
 use weft::mesh::MeshError;
+use weft::strided::Strided;
 use weft::world::{
-    effects, Capacity, ClothDef, InitError, Material, Materials, Settings, StepError, World,
+    effects, Capacity, ClothDef, InitError, Material, Materials, Settings, StepError,
+    StridedClothDef, TriangleMaterials, World,
 };
 
 fn no_warp() -> Settings {
@@ -808,4 +810,88 @@ fn steps_without_input_never_gain_energy() {
         );
         before = now;
     }
+}
+
+/// A cloth read in place from an interleaved vertex buffer (position, uv, padding per 28-byte
+/// record) with one material for every triangle builds the same world as the packed arrays,
+/// and the strided setters equal the slice ones.
+#[test]
+fn strided_cloth_and_edits_match_the_packed_ones() {
+    let mut sheet = Sheet::grid(6, 5, 0.5, 0.4);
+    sheet.transform(|p| [p[0], p[1] + 0.1 * p[0], 0.2 * p[0] * p[1]]);
+    let mats = [isotropic(800.0, 0.3, 0.2), anisotropic()];
+    let cap = sheet.capacity();
+    let zeros = vec![1u32; sheet.triangles.len()];
+    let packed_def = ClothDef {
+        materials: &zeros,
+        ..sheet.def()
+    };
+    let mut mem_a = memory(&cap);
+    let mut a = World::new(
+        &mut mem_a,
+        cap,
+        &packed_def,
+        Materials::Table(&mats),
+        no_warp(),
+    )
+    .unwrap();
+    let n = sheet.positions.len();
+    let mut records = vec![0u8; 28 * n];
+    for (i, (p, uv)) in sheet.positions.iter().zip(&sheet.uvs).enumerate() {
+        let r = &mut records[28 * i..];
+        for (k, c) in p.iter().chain(uv).enumerate() {
+            r[4 * k..4 * k + 4].copy_from_slice(&c.to_le_bytes());
+        }
+    }
+    let cloth = StridedClothDef {
+        positions: Strided::new(&records, 28, n).unwrap(),
+        uvs: Strided::with_offset(&records, 28, 12, n).unwrap(),
+        triangles: &sheet.triangles,
+        materials: TriangleMaterials::Uniform(1),
+    };
+    let mut mem_b = memory(&cap);
+    let mut b =
+        World::new_strided(&mut mem_b, cap, &cloth, Materials::Table(&mats), no_warp()).unwrap();
+    assert_eq!(a.positions(), b.positions());
+    assert_eq!(a.masses(), b.masses());
+    assert_eq!(a.triangle_materials(), b.triangle_materials());
+    // a uniform material that is not in the table is refused like a per-triangle one
+    let bad = StridedClothDef {
+        materials: TriangleMaterials::Uniform(2),
+        ..cloth
+    };
+    let mut mem_c = memory(&cap);
+    assert!(matches!(
+        World::new_strided(&mut mem_c, cap, &bad, Materials::Table(&mats), no_warp()),
+        Err(InitError::MaterialOutOfRange {
+            triangle: 0,
+            material: 2
+        })
+    ));
+    // strided edits
+    let moved: Vec<[f32; 3]> = sheet
+        .positions
+        .iter()
+        .map(|p| [p[0], p[1], p[2] + 0.01])
+        .collect();
+    let mut rec = vec![0u8; 20 * n];
+    for (i, p) in moved.iter().enumerate() {
+        for (k, c) in p.iter().enumerate() {
+            rec[20 * i + 4 + 4 * k..20 * i + 8 + 4 * k].copy_from_slice(&c.to_le_bytes());
+        }
+    }
+    let view = Strided::<3>::with_offset(&rec, 20, 4, n).unwrap();
+    a.set_positions(&moved).unwrap();
+    b.set_positions_strided(&view).unwrap();
+    a.set_velocities(&moved).unwrap();
+    b.set_velocities_strided(&view).unwrap();
+    assert_eq!(a.step(), b.step());
+    assert_eq!(a.positions(), b.positions());
+    rec[20 * 3 + 8..20 * 3 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
+    let view = Strided::<3>::with_offset(&rec, 20, 4, n).unwrap();
+    assert_eq!(
+        b.set_positions_strided(&view),
+        Err(weft::world::EditError::NonFinite)
+    );
+    assert_eq!(a.positions(), b.positions());
 }

@@ -197,10 +197,8 @@ fn stiffness_apply(
             y.fill(Vec3A::NAN);
         }
     }
-    if bending {
-        if sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y).is_err() {
-            y.fill(Vec3A::NAN);
-        }
+    if bending && sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y).is_err() {
+        y.fill(Vec3A::NAN);
     }
 }
 

@@ -20,8 +20,10 @@ pub(crate) use memory::Arrays;
 pub use memory::Capacity;
 pub use settings::{effects, Settings};
 
+use core::ops::Not;
 #[cfg(feature = "research")]
 use glam::Quat;
+
 use glam::Vec3A;
 
 use crate::bending;
@@ -32,6 +34,7 @@ use crate::mesh::{self, MeshError, Topology};
 use crate::normals;
 use crate::sparse::{self, Pattern};
 use crate::step::{self, monitor};
+use crate::strided::Strided;
 
 /// How many of each thing a built world holds: the lengths the step's stages slice its
 /// arrays to.
@@ -87,6 +90,67 @@ pub struct ClothDef<'a> {
     pub materials: &'a [u32],
 }
 
+impl<'a> ClothDef<'a> {
+    /// The same cloth as a [`StridedClothDef`].
+    pub fn strided(&self) -> StridedClothDef<'a> {
+        StridedClothDef {
+            positions: Strided::from_slice(self.positions),
+            uvs: Strided::from_slice(self.uvs),
+            triangles: self.triangles,
+            materials: TriangleMaterials::PerTriangle(self.materials),
+        }
+    }
+}
+
+/// The cloth handed to [`World::new_strided`]: a [`ClothDef`] whose positions and (u, v) are
+/// read in place from (interleaved) vertex buffers and whose triangles may share one material,
+/// so nothing has to be gathered into packed arrays first. Borrowed; nothing is kept.
+#[derive(Clone, Copy)]
+pub struct StridedClothDef<'a> {
+    /// Initial positions (m).
+    pub positions: Strided<'a, 3>,
+    /// Material coordinates (u, v) in metres: the rest shape.
+    pub uvs: Strided<'a, 2>,
+    pub triangles: &'a [[u32; 3]],
+    pub materials: TriangleMaterials<'a>,
+}
+
+/// Each triangle's material (the cell index in a blob).
+#[derive(Clone, Copy, Debug)]
+pub enum TriangleMaterials<'a> {
+    /// One per triangle.
+    PerTriangle(&'a [u32]),
+    /// The same for every triangle.
+    Uniform(u32),
+}
+
+impl TriangleMaterials<'_> {
+    /// Triangle `t`'s material (`None` past the end of a per-triangle slice).
+    fn get(&self, t: usize) -> Option<u32> {
+        match self {
+            TriangleMaterials::PerTriangle(m) => m.get(t).copied(),
+            TriangleMaterials::Uniform(m) => Some(*m),
+        }
+    }
+}
+
+/// A whole-cloth vertex input of the edit functions: one entry per vertex, every value finite.
+fn check_vertex_input(input: &Strided<'_, 3>, n: usize) -> Result<(), EditError> {
+    if input.count() != n {
+        return Err(EditError::VertexOutOfRange);
+    }
+    let finite = |i| {
+        input
+            .get(i)
+            .is_some_and(|p| p.iter().all(|c| c.is_finite()))
+    };
+    if !(0..n).all(finite) {
+        return Err(EditError::NonFinite);
+    }
+    Ok(())
+}
+
+/// A coarse cloth and everything needed to step it, living in a caller-owned block.
 pub struct World<'a> {
     a: Arrays<'a>,
     capacity: Capacity,
@@ -119,8 +183,19 @@ impl<'a> World<'a> {
         materials: Materials<'_>,
         settings: Settings,
     ) -> Result<World<'a>, InitError> {
+        Self::new_strided(memory, capacity, &cloth.strided(), materials, settings)
+    }
+
+    /// [`World::new`] reading the cloth in place from strided buffers.
+    pub fn new_strided(
+        memory: &'a mut [u8],
+        capacity: Capacity,
+        cloth: &StridedClothDef<'_>,
+        materials: Materials<'_>,
+        settings: Settings,
+    ) -> Result<World<'a>, InitError> {
         settings.validate()?;
-        let (n, nt) = (cloth.positions.len(), cloth.triangles.len());
+        let (n, nt) = (cloth.positions.count(), cloth.triangles.len());
         if n > capacity.v() {
             return Err(InitError::VertexCapacity {
                 needed: n as u32,
@@ -133,11 +208,13 @@ impl<'a> World<'a> {
                 capacity: capacity.triangles,
             });
         }
-        if cloth.uvs.len() != n {
+        if cloth.uvs.count() != n {
             return Err(InitError::Mesh(MeshError::BufferTooSmall));
         }
-        if cloth.materials.len() != nt {
-            return Err(InitError::MaterialCount);
+        if let TriangleMaterials::PerTriangle(m) = cloth.materials {
+            if m.len() != nt {
+                return Err(InitError::MaterialCount);
+            }
         }
         if memory.len() < capacity.world_bytes() {
             return Err(InitError::MemoryTooSmall);
@@ -169,17 +246,22 @@ impl<'a> World<'a> {
         Ok(w)
     }
 
-    fn build(&mut self, cloth: &ClothDef<'_>, materials: Materials<'_>) -> Result<(), InitError> {
+    fn build(
+        &mut self,
+        cloth: &StridedClothDef<'_>,
+        materials: Materials<'_>,
+    ) -> Result<(), InitError> {
         let (n, nt) = (self.n, self.nt);
         let a = &mut self.a;
-        mesh::validate(
-            cloth.positions,
-            cloth.uvs,
+        mesh::validate_strided(
+            &cloth.positions,
+            &cloth.uvs,
             cloth.triangles,
             &mut a.tri_sign[..nt],
         )?;
         // Materials: every triangle's must exist and be usable.
-        for (t, &m) in cloth.materials.iter().enumerate() {
+        for t in 0..nt {
+            let m = cloth.materials.get(t).ok_or(InitError::MaterialCount)?;
             let mat = materials.get(m).ok_or(InitError::MaterialOutOfRange {
                 triangle: t as u32,
                 material: m,
@@ -194,10 +276,12 @@ impl<'a> World<'a> {
             }
         }
         a.triangles[..nt].copy_from_slice(cloth.triangles);
-        a.tri_material[..nt].copy_from_slice(cloth.materials);
+        for (t, m) in a.tri_material[..nt].iter_mut().enumerate() {
+            *m = cloth.materials.get(t).ok_or(InitError::MaterialCount)?;
+        }
         for i in 0..n {
-            let p = cloth.positions[i];
-            let uv = cloth.uvs[i];
+            let p = cloth.positions.get(i).ok_or(InitError::Internal)?;
+            let uv = cloth.uvs.get(i).ok_or(InitError::Internal)?;
             a.x[i] = Vec3A::from(p);
             a.rest[i] = Vec3A::new(uv[0], uv[1], 0.0);
         }
@@ -442,14 +526,14 @@ impl<'a> World<'a> {
 
     /// Overwrites positions (and zeroes nothing else); wakes the world.
     pub fn set_positions(&mut self, positions: &[[f32; 3]]) -> Result<(), EditError> {
-        if positions.len() != self.n {
-            return Err(EditError::VertexOutOfRange);
-        }
-        if positions.iter().flatten().any(|c| !c.is_finite()) {
-            return Err(EditError::NonFinite);
-        }
-        for (x, p) in self.a.x.iter_mut().zip(positions) {
-            *x = Vec3A::from(*p);
+        self.set_positions_strided(&Strided::from_slice(positions))
+    }
+
+    /// [`World::set_positions`] from a strided (e.g. interleaved) vertex buffer.
+    pub fn set_positions_strided(&mut self, positions: &Strided<'_, 3>) -> Result<(), EditError> {
+        check_vertex_input(positions, self.n)?;
+        for (i, x) in self.a.x[..self.n].iter_mut().enumerate() {
+            *x = Vec3A::from(positions.get(i).ok_or(EditError::VertexOutOfRange)?);
         }
         self.wake();
         Ok(())
@@ -458,14 +542,14 @@ impl<'a> World<'a> {
     /// Overwrites velocities and forgets the solver's warm start (the last step's velocity
     /// change, meaningless for the new velocities); wakes the world.
     pub fn set_velocities(&mut self, velocities: &[[f32; 3]]) -> Result<(), EditError> {
-        if velocities.len() != self.n {
-            return Err(EditError::VertexOutOfRange);
-        }
-        if velocities.iter().flatten().any(|c| !c.is_finite()) {
-            return Err(EditError::NonFinite);
-        }
-        for (v, p) in self.a.v.iter_mut().zip(velocities) {
-            *v = Vec3A::from(*p);
+        self.set_velocities_strided(&Strided::from_slice(velocities))
+    }
+
+    /// [`World::set_velocities`] from a strided (e.g. interleaved) vertex buffer.
+    pub fn set_velocities_strided(&mut self, velocities: &Strided<'_, 3>) -> Result<(), EditError> {
+        check_vertex_input(velocities, self.n)?;
+        for (i, v) in self.a.v[..self.n].iter_mut().enumerate() {
+            *v = Vec3A::from(velocities.get(i).ok_or(EditError::VertexOutOfRange)?);
         }
         self.a.dv[..self.n].fill(Vec3A::ZERO);
         self.wake();
@@ -659,7 +743,9 @@ impl<'a> World<'a> {
             let excess = gain - floor;
             let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess);
             let in_play = start.energy + end.energy + gravity.abs() + input.abs();
-            if !(excess - removed <= 0.25 * in_play) {
+            // (NaN counts as a blow-up too)
+            let blown_up = (excess - removed <= 0.25 * in_play).not();
+            if blown_up {
                 self.restore_start();
                 return Err(StepError::Unstable);
             }

@@ -73,6 +73,8 @@ use crate::blob::{Blob, Cell};
 use crate::strided::{self, StrideError, Strided, StridedMut};
 use crate::world::World;
 
+pub mod blocks;
+
 /// Barycentric slack of point location: a point whose barycentric coordinates in a triangle
 /// are all ≥ `-LOCATE_TOLERANCE` is in it. Points within this (relative) distance of the
 /// cloth's boundary are accepted and extrapolated; points this close to an interior edge go to
@@ -185,7 +187,7 @@ pub enum LocalizeError {
         len: usize,
     },
     /// Binding `index` names a coarse triangle (or the triangle a vertex) that does not exist.
-    /// Vertices before it have been written.
+    /// Nothing has been written.
     BadBinding { index: usize },
     /// A coarse or fine triangle names a vertex that does not exist.
     BadTriangle { triangle: usize },
@@ -989,8 +991,9 @@ fn put(rec: &mut [u8], at: usize, v: Vec3A) -> bool {
 /// blended frame and strain and `w = −(χ¹Ê1 + χ²Ê2 + χ³Ê3)`. Normal: `normalize(Σ b_k n_k)`.
 ///
 /// Disjoint ranges can run as separate jobs ([`StridedMut::split_at`] splits a vertex buffer).
-/// Errors: `Range` and `NormalLayout` / `BufferTooSmall` before anything is written;
-/// `BadBinding` (a binding not made for these triangles) stops at that vertex.
+/// Everything is checked before anything is written, so on error no output changed: `Range`,
+/// `BadBinding` (the lowest binding in the range not made for these triangles and frames),
+/// `NormalLayout` / `BufferTooSmall`.
 pub fn localize(
     frames: &[VertexFrame],
     triangles: &[[u32; 3]],
@@ -999,7 +1002,50 @@ pub fn localize(
     positions: &mut StridedMut<'_, 3>,
     normals: Option<NormalTarget<'_, '_>>,
 ) -> Result<(), LocalizeError> {
-    let count = positions.count();
+    let range = checked_range(frames, triangles, bindings, first, positions.count())?;
+    write_localized(frames, triangles, range, first, positions, normals)
+}
+
+/// [`localize`], then [`recompute_normals`] from the fine triangles `fine_triangles` (indices
+/// relative to `first`, i.e. into `positions`), all checked before anything is written: the
+/// errors of both, and no output changed on any of them.
+pub fn localize_recomputed(
+    frames: &[VertexFrame],
+    triangles: &[[u32; 3]],
+    bindings: &[Binding],
+    first: usize,
+    positions: &mut StridedMut<'_, 3>,
+    fine_triangles: &[[u32; 3]],
+    normals: NormalTarget<'_, '_>,
+) -> Result<(), LocalizeError> {
+    let range = checked_range(frames, triangles, bindings, first, positions.count())?;
+    check_fine_triangles(fine_triangles, positions.count())?;
+    let (bytes, stride, po, count) = positions.parts_mut();
+    match &normals {
+        NormalTarget::Interleaved { offset } => {
+            check_interleaved(bytes.len(), stride, po, *offset, count)?
+        }
+        NormalTarget::Buffer(nb) if nb.count() < count => {
+            return Err(LocalizeError::BufferTooSmall {
+                needed: count,
+                len: nb.count(),
+            })
+        }
+        NormalTarget::Buffer(_) => {}
+    }
+    write_localized(frames, triangles, range, first, positions, None)?;
+    recompute_normals(fine_triangles, positions, normals)
+}
+
+/// `bindings[first .. first + count]`, each of which names a coarse triangle of `triangles`
+/// whose corners have frames.
+fn checked_range<'b>(
+    frames: &[VertexFrame],
+    triangles: &[[u32; 3]],
+    bindings: &'b [Binding],
+    first: usize,
+    count: usize,
+) -> Result<&'b [Binding], LocalizeError> {
     let range = LocalizeError::Range {
         first,
         count,
@@ -1007,6 +1053,36 @@ pub fn localize(
     };
     let end = first.checked_add(count).ok_or(range)?;
     let bindings = bindings.get(first..end).ok_or(range)?;
+    if let Some(i) = bindings
+        .iter()
+        .position(|b| corners(frames, triangles, b).is_none())
+    {
+        return Err(LocalizeError::BadBinding { index: first + i });
+    }
+    Ok(bindings)
+}
+
+/// Every fine triangle names vertices below `n`.
+fn check_fine_triangles(fine_triangles: &[[u32; 3]], n: usize) -> Result<(), LocalizeError> {
+    match fine_triangles
+        .iter()
+        .position(|t| t.iter().any(|&v| v as usize >= n))
+    {
+        Some(t) => Err(LocalizeError::BadTriangle { triangle: t }),
+        None => Ok(()),
+    }
+}
+
+/// The writing half of [`localize`], on a range [`checked_range`] accepted.
+fn write_localized(
+    frames: &[VertexFrame],
+    triangles: &[[u32; 3]],
+    bindings: &[Binding],
+    first: usize,
+    positions: &mut StridedMut<'_, 3>,
+    normals: Option<NormalTarget<'_, '_>>,
+) -> Result<(), LocalizeError> {
+    let count = positions.count();
     let (bytes, stride, po, _) = positions.parts_mut();
     let bad = |i: usize| LocalizeError::BadBinding { index: first + i };
     match normals {
@@ -1075,12 +1151,7 @@ pub fn recompute_normals(
     normals: NormalTarget<'_, '_>,
 ) -> Result<(), LocalizeError> {
     let n = positions.count();
-    if let Some(t) = fine_triangles
-        .iter()
-        .position(|t| t.iter().any(|&v| v as usize >= n))
-    {
-        return Err(LocalizeError::BadTriangle { triangle: t });
-    }
+    check_fine_triangles(fine_triangles, n)?;
     let mut io = match normals {
         NormalTarget::Interleaved { offset } => {
             let (bytes, stride, po, _) = positions.parts_mut();
