@@ -411,7 +411,7 @@ pub struct Cell<'a> {
     /// Material index of each triangle.
     pub tri_material: &'a [u32],
     /// Per node `(χ¹u, χ¹v, χ²u, χ²v, χ³u, χ³v)`, metres per unit strain; the micro displacement
-    /// under macro strain `Ê` is `w = -(χ¹ Ê1 + χ² Ê2 + χ³ Ê3)` (DESIGN.md).
+    /// under macro strain `Ê` is `w = -(χ¹ Ê1 + χ² Ê2 + χ³ Ê3)` (docs/CONVENTIONS.md).
     pub chi: &'a [[f32; 6]],
 }
 

@@ -19,7 +19,7 @@
 //! density = 0.1
 //! ```
 //!
-//! A material gives either `stiffness` + `poisson` (DESIGN.md's isotropic `C`) or a full symmetric
+//! A material gives either `stiffness` + `poisson` (docs/CONVENTIONS.md's isotropic `C`) or a full symmetric
 //! positive definite `tensor`. Materials a pattern does not use are allowed. Materials are stored
 //! sorted by key, and pixels index into that list.
 //!

@@ -1,6 +1,6 @@
 //! Kinematic colliders (plane, sphere, capsule) and cloth–collider contact.
 //!
-//! Contact enters the step twice (DESIGN.md "The coarse simulation"):
+//! Contact enters the step twice (docs/ARCHITECTURE.md, "One step, in order"):
 //! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets
 //!   a one-direction constraint in the PCG filter (Baraff & Witkin 1998 §5.3): its velocity
 //!   along the contact normal is prescribed so that it ends the step on the offset surface;

@@ -2,7 +2,7 @@
 //! homogenized membrane stiffness `C^H` (Eq. 12–13), with the Voigt and Reuss bounds.
 //!
 //! For each unit macro strain `E^k` (`[1,0,0]`, `[0,1,0]`, `[0,0,1]`, engineering shear) the
-//! periodic `chi^k` solves (Eq. 10, DESIGN.md "The cell problem")
+//! periodic `chi^k` solves (Eq. 10, docs/CONVENTIONS.md)
 //!
 //! ```text
 //! Σ_e A_e B_eᵀ C_e B_e chi^k = Σ_e A_e B_eᵀ C_e E^k        (K chi^k = f^k)
@@ -45,7 +45,7 @@ pub struct Homogenized {
     /// Per mesh node, per unit strain `k = 0..3`: the characteristic displacement `chi^k`
     /// `(u, v)` in metres per unit strain, periodic, with zero nodal mean (which on the uniform
     /// periodic pixel grid is also the zero area mean: every node carries the same area `h²`).
-    /// The micro displacement under a macro strain `Ê` is `-Σ_k chi^k Ê_k` (DESIGN.md).
+    /// The micro displacement under a macro strain `Ê` is `-Σ_k chi^k Ê_k` (docs/CONVENTIONS.md).
     pub chi: Vec<[[f64; 2]; 3]>,
     /// Upper (Voigt) bound: area mean of `C`.
     pub voigt_bound: Voigt,

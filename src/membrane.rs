@@ -117,7 +117,7 @@ pub fn stress_forces(g: &Gradients, s: [f64; 3]) -> [[f64; 2]; 3] {
     f
 }
 
-/// Isotropic membrane stiffness (DESIGN.md): `Y/(1-ν²) [[1, ν, 0], [ν, 1, 0], [0, 0, (1-ν)/2]]`.
+/// Isotropic membrane stiffness (docs/CONVENTIONS.md): `Y/(1-ν²) [[1, ν, 0], [ν, 1, 0], [0, 0, (1-ν)/2]]`.
 pub fn isotropic(stiffness: f64, poisson: f64) -> Voigt {
     let f = stiffness / (1.0 - poisson * poisson);
     [

@@ -348,7 +348,7 @@ pub fn couplings(
 }
 
 /// A regular grid sheet of `nx × ny` vertices spanning `width × height` in (u,v), each square
-/// split along its lower-left→upper-right diagonal (the pixel convention of DESIGN.md).
+/// split along its lower-left→upper-right diagonal (the pixel convention of docs/CONVENTIONS.md).
 /// Positions are `(u, v, 0)`. Used by tests, benchmarks and the demo; writes into the slices and
 /// returns `(vertices, triangles)`.
 pub fn grid(

@@ -10,7 +10,7 @@
 //!
 //! * `b_k` are the barycentric coordinates of `y` in its coarse triangle's rest (u, v) shape and
 //!   `p_k` that triangle's current corners: the affine embedding of Eq. 23 (`x0 + xi0 - x00`).
-//! * `w` is the micro displacement of the cell problem (DESIGN.md: note the minus sign and
+//! * `w` is the micro displacement of the cell problem (docs/CONVENTIONS.md: note the minus sign and
 //!   `Ê3 = 2 E12`), with `χ` interpolated in the cell's micro mesh at `y mod cell` and the
 //!   macro strain `Ê` of the coarse cloth at `y`.
 //! * `T` carries the in-plane `w` into 3D: the first two columns of the paper's frame map
@@ -1184,7 +1184,7 @@ pub fn recompute_normals(
         f.is_finite().then_some(f)
     };
     // Scale for the seed that keeps a collapsed vertex's previous normal (as
-    // rotation::vertex_normals does for the coarse mesh).
+    // normals::vertex_normals does for the coarse mesh).
     let largest = fine_triangles
         .iter()
         .filter_map(|t| face(&io, t))

@@ -132,11 +132,6 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
     let pins = pins_on(c, st);
     let mut contacts = 0;
     let mut work = 0.0f64;
-    let gravity = if st.effects & effects::GRAVITY != 0 {
-        Vec3A::from(st.gravity)
-    } else {
-        Vec3A::ZERO
-    };
     if collide_on(c, st) {
         for i in 0..n {
             if pins && a.pin_of[i] != mesh::NONE {
@@ -186,9 +181,8 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
             }
             if pushed_by_moving {
                 // A moving collider that pushes a vertex out does work against the forces
-                // holding it there (elastic and gravity): `−f·δ`.
-                let f = a.force[i] + gravity * a.mass[i];
-                work -= f64::from(f.dot(a.x[i] - x_before));
+                // holding it there: `−f·δ`, with `f = rhs / h` the substep's force on it.
+                work -= f64::from((a.rhs[i] / h).dot(a.x[i] - x_before));
             }
             if touched && vs_held != Vec3A::ZERO {
                 // a moving surface does work m Δv · v_s through what it changed

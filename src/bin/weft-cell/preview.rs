@@ -2,7 +2,7 @@
 //!
 //! One row per cell, four panels per row:
 //! (a) the pattern, triangles coloured by material, with a legend (material index, C11);
-//! (b–d) the micro mesh deformed under the unit macro strains E¹, E², E³ (DESIGN.md): node
+//! (b–d) the micro mesh deformed under the unit macro strains E¹, E², E³ (docs/CONVENTIONS.md): node
 //! displacement `s·(E^k (y - y_c) - chi^k)` (affine part plus the periodic fluctuation
 //! `w = -chi^k`; taking the affine part about the cell centre `y_c` is only a rigid translation
 //! that keeps the picture centred), with the exaggeration `s` chosen so the largest displacement
