@@ -1354,6 +1354,7 @@ impl<'a> World<'a> {
         let settings = pcg::Settings {
             tolerance: st.tolerance,
             max_iterations: st.max_iterations,
+            floor: 0.0,
         };
         let work = pcg::Work {
             r: &mut a.w_r[..n],
