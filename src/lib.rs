@@ -45,6 +45,7 @@ pub mod ffi;
 pub mod localize;
 pub mod membrane;
 pub mod mesh;
+pub mod multigrid;
 pub mod pcg;
 pub mod rotation;
 pub mod sparse;

@@ -24,6 +24,7 @@ use crate::blob::Blob;
 use crate::collide::{self, Collider, Shape};
 use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
+use crate::multigrid;
 use crate::pcg::{self, Operator};
 use crate::rotation;
 use crate::sparse::{self, Pattern};
@@ -146,7 +147,9 @@ arrays! { cap;
     vt: u32 = [cap.t().saturating_mul(3); 0],
     ring_start: u32 = [cap.v().saturating_add(1); 0],
     ring: u32 = [cap.e().saturating_mul(2); 0],
-    scratch_a: u32 = [cap.v(); 0],
+    /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`; its
+    /// per-solve memory is lent by `precond` and `force`, see `substep`).
+    scratch_a: u32 = [max(cap.v(), multigrid::index_len(cap.v(), cap.b())); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
     row_start: u32 = [cap.v().saturating_add(1); 0],
@@ -158,8 +161,9 @@ arrays! { cap;
     /// Rotated membrane stiffness `K_w = Σ_e R_e K_e R_eᵀ` (N/m), re-assembled every substep.
     k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
     k_off: Mat3A = [cap.b(); Mat3A::ZERO],
-    /// Elastic forces of the current substep (N).
-    force: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Elastic forces of the current substep (N); during the solve, the multilevel vectors
+    /// and coarsest factor.
+    force: Vec3A = [max(cap.v(), mg_vectors(cap).saturating_add(multigrid::dense_len(cap.v(), cap.b()).div_ceil(2))); Vec3A::ZERO],
     /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
     q_diag: f32 = [cap.v(); 0.0],
     q_off: f32 = [cap.b(); 0.0],
@@ -172,7 +176,8 @@ arrays! { cap;
     w_c: Vec3A = [cap.v(); Vec3A::ZERO],
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
-    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
+    precond: Mat3A = [max(cap.v(), multigrid::blocks_len(cap.v(), cap.b()).div_ceil(12)); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
     /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
@@ -185,6 +190,19 @@ arrays! { cap;
     pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
     pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
+}
+
+/// `Vec3A`s of `force` that hold the multilevel vectors during a solve.
+const fn mg_vectors(cap: &Capacity) -> usize {
+    multigrid::vectors_len(cap.v(), cap.b())
+}
+
+const fn max(a: usize, b: usize) -> usize {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes
@@ -383,6 +401,24 @@ impl Settings {
     }
 }
 
+/// The preconditioner of the step's CG ([`World::set_solver`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Solver {
+    /// The inverse 3×3 diagonal blocks: cheap per iteration, but the iteration count grows
+    /// with the mesh resolution.
+    BlockJacobi,
+    /// The multilevel preconditioner of [`crate::multigrid`]: a V-cycle per iteration, an
+    /// iteration count that does not grow with the mesh. Per-node warping
+    /// ([`Settings::per_node_warping`]) always uses block Jacobi.
+    #[default]
+    Multigrid,
+}
+
+/// Absolute floor of the step's CG (`pcg::Settings::floor`) as a velocity: the solve stops
+/// once the remaining error of `Δv` is below this RMS velocity (m/s) in the energy norm, so a
+/// cloth at rest (right-hand side = round-off) costs no iterations.
+const FLOOR_VELOCITY: f64 = 1e-6;
+
 /// Why [`World::new`] refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InitError {
@@ -519,6 +555,7 @@ pub struct World<'a> {
     window_scale: f64,
     asleep: bool,
     last: StepStats,
+    solver: Solver,
 }
 
 impl<'a> World<'a> {
@@ -578,6 +615,7 @@ impl<'a> World<'a> {
             window_scale: 0.0,
             asleep: false,
             last: StepStats::default(),
+            solver: Solver::default(),
         };
         w.build(cloth, materials)?;
         Ok(w)
@@ -768,6 +806,23 @@ impl<'a> World<'a> {
             }
         }
 
+        // The multilevel hierarchy, aggregated over the mesh edges; its scratch is the
+        // stiffness blocks, not assembled yet. A mesh it cannot be built for (scratch too
+        // small: far more isolated vertices than edges) steps with block Jacobi.
+        let a = &mut self.a;
+        let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let _ = multigrid::build(
+            &Pattern {
+                row_start: &a.row_start[..n + 1],
+                cols: &a.cols[..self.nnz],
+            },
+            Some(multigrid::Graph {
+                start: &a.ring_start[..n + 1],
+                adjacency: &a.ring[..2 * self.ne],
+            }),
+            a.scratch_a,
+            scratch,
+        );
         // Warm start the rotations from the initial placement.
         self.update_rotations(8);
         Ok(())
@@ -834,6 +889,21 @@ impl<'a> World<'a> {
     }
     pub fn total_mass(&self) -> f64 {
         self.total_mass
+    }
+
+    /// The CG preconditioner of the step.
+    pub fn solver(&self) -> Solver {
+        self.solver
+    }
+
+    /// The multilevel hierarchy's shape (built at init for any solver).
+    pub fn multigrid_info(&self) -> Option<multigrid::Info> {
+        multigrid::info(self.a.scratch_a)
+    }
+
+    /// Chooses the CG preconditioner of the following steps.
+    pub fn set_solver(&mut self, solver: Solver) {
+        self.solver = solver;
     }
 
     /// Changes scene parameters; wakes the world when anything changed.
@@ -1354,7 +1424,7 @@ impl<'a> World<'a> {
         let settings = pcg::Settings {
             tolerance: st.tolerance,
             max_iterations: st.max_iterations,
-            floor: 0.0,
+            floor: (self.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
         };
         let work = pcg::Work {
             r: &mut a.w_r[..n],
@@ -1376,14 +1446,47 @@ impl<'a> World<'a> {
                     let d = &mut a.k_diag[i];
                     *d = *d * c_k
                         + Mat3A::from_diagonal(glam::Vec3::splat(b * c_k + c_m * a.mass[i]));
-                    a.precond[i] = pcg::invert_block(*d);
                 }
                 let op = sparse::BlockMatrix {
                     diag: &a.k_diag[..n],
                     pattern,
                     off: &a.k_off[..self.nnz],
                 };
-                pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
+                let mut result = Err(pcg::PcgError::Breakdown);
+                if self.solver == Solver::Multigrid {
+                    // Lent for the solve: the block-Jacobi array and the force vector (read
+                    // into rhs above).
+                    let (vectors, dense) = a.force.split_at_mut(mg_vectors(&self.capacity));
+                    let mem = multigrid::Memory {
+                        index: a.scratch_a,
+                        blocks: bytemuck::cast_slice_mut(&mut a.precond[..]),
+                        dense: bytemuck::cast_slice_mut(dense),
+                        vectors,
+                    };
+                    let options = multigrid::Options::default();
+                    if let Ok(mut mg) = multigrid::Multigrid::new(mem, op, filter_arg, options) {
+                        result =
+                            pcg::solve_with(&op, &mut mg, filter_arg, rhs, dv, &settings, work);
+                    }
+                }
+                match result {
+                    Ok(stats) => Ok(stats),
+                    Err(_) => {
+                        // Block Jacobi, also the fallback should the multilevel cycle ever
+                        // break down (not positive): it restarts from the partial iterate,
+                        // whose constrained components the solve has kept.
+                        for (p, d) in a.precond[..n].iter_mut().zip(&a.k_diag[..n]) {
+                            *p = pcg::invert_block(*d);
+                        }
+                        let work = pcg::Work {
+                            r: &mut a.w_r[..n],
+                            c: &mut a.w_c[..n],
+                            q: &mut a.w_q[..n],
+                            s: &mut a.w_s[..n],
+                        };
+                        pcg::solve(&op, &a.precond[..n], filter_arg, rhs, dv, &settings, work)
+                    }
+                }
             }
             Some(rot) => {
                 for (i, (p, q)) in a.precond[..n].iter_mut().zip(rot).enumerate() {
