@@ -45,6 +45,7 @@ pub mod ffi;
 pub mod localize;
 pub mod membrane;
 pub mod mesh;
+pub mod multigrid;
 pub mod normals;
 pub mod pcg;
 #[cfg(feature = "research")]

@@ -19,17 +19,32 @@
 //! only moves where `S` lets it, and the block-Jacobi preconditioner `P` enters as `S P S`,
 //! which is SPD on that subspace whenever `P` is SPD (so CG's theory applies unchanged).
 //!
-//! Convergence test (exactly as implemented): with `rᵀ P r` the preconditioned residual norm²
-//! of the filtered residual `r = S (b − A x)` (updated recursively, as in CG),
+//! The preconditioner is pluggable ([`Preconditioner`]): [`BlockJacobi`] (the inverse 3×3
+//! diagonal blocks, [`solve`]) or any other SPD `P`, e.g. the multilevel one of
+//! [`crate::multigrid`] ([`solve_with`]). Whatever `P` is, it enters only as `S P S`.
+//!
+//! Convergence test (exactly as implemented): with `δ = rᵀ P r` the preconditioned residual
+//! norm² of the filtered residual `r = S (b − A x)` (updated recursively, as in CG), the solve
+//! stops as converged when either
 //!
 //! ```text
-//!     sqrt(rᵀ P r / δ₀) ≤ tolerance,     δ₀ = (S b)ᵀ P (S b)
+//!     sqrt(δ / δ₀) ≤ tolerance,     δ₀ = (S b)ᵀ P (S b)        (relative, §5.3's δ < ε² δ₀)
+//!     δ ≤ floor                                                (absolute, Settings::floor)
 //! ```
 //!
-//! as in §5.3 (`δ_new < ε² δ₀`). If `δ₀ = 0` (the filtered right-hand side vanishes) the
-//! reference becomes the initial residual `r₀ᵀ P r₀` instead, so a problem driven only by
-//! prescribed components still converges to a relative reduction rather than never; if the
-//! initial residual is also zero the warm start is returned after 0 iterations.
+//! holds, checked before the first iteration and after every one. If `δ₀ = 0` (the filtered
+//! right-hand side vanishes) the relative reference becomes the initial residual `r₀ᵀ P r₀`
+//! instead, so a problem driven only by prescribed components still converges to a relative
+//! reduction rather than never; if the initial residual is also zero the warm start is returned
+//! after 0 iterations.
+//!
+//! The absolute floor is what makes a problem whose right-hand side is only round-off (a cloth
+//! at rest: `b ≈ 0`) cost 0–2 iterations instead of reducing noise by `tolerance` up to the
+//! cap. Its unit is that of `bᵀ A⁻¹ b`: for the World's step, `b` is a momentum (N·s) and `A` a
+//! mass (kg), so `δ` is in joules: for `P ≈ A⁻¹`, `δ ≈ eᵀ A e` is twice the `A`-norm energy of
+//! the remaining error `e` of `x` (for `A ≈ M`, `Σ m_i |e_i|²`). A preconditioner weaker than
+//! `A⁻¹` on smooth errors (block Jacobi) underestimates it there, as it does the relative test.
+//! `floor = 0` (the default) turns it off.
 //!
 //! Numerics: vectors are `f32` (`Vec3A`), dot products are accumulated in `f64` (products of
 //! two `f32` are exact in `f64`) in a fixed serial order, so a solve is bit-reproducible given
@@ -63,22 +78,61 @@ impl Operator for BlockMatrix<'_> {
     }
 }
 
+/// A symmetric positive definite preconditioner `P ≈ A⁻¹` on `n` vertices.
+///
+/// [`solve_with`] applies it to filtered residuals (`r = S r`) and uses only `S P r`, so it
+/// need only be SPD on `range(S)`. It must be a fixed linear map during one solve (CG's theory
+/// and the bit-reproducibility of a solve rest on that).
+pub trait Preconditioner {
+    /// `z = P r`, with `r.len() == z.len() == n`; `z` is fully overwritten. `scratch` holds
+    /// at least `n` entries whose contents on entry are arbitrary and which may be overwritten
+    /// (the solver lends a vector that is dead at that point). A preconditioner that cannot
+    /// apply itself (e.g. wrong lengths) should fill `z` with NaN, which [`solve_with`] reports
+    /// as [`PcgError::Breakdown`].
+    fn apply(&mut self, r: &[Vec3A], z: &mut [Vec3A], scratch: &mut [Vec3A]);
+}
+
+/// Block Jacobi: one SPD 3×3 block per vertex (the inverse diagonal blocks of `A`, see
+/// [`invert_block`]), `z_i = P_i r_i`.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockJacobi<'a>(pub &'a [Mat3A]);
+
+impl Preconditioner for BlockJacobi<'_> {
+    #[inline]
+    fn apply(&mut self, r: &[Vec3A], z: &mut [Vec3A], _scratch: &mut [Vec3A]) {
+        if self.0.len() != r.len() || z.len() != r.len() {
+            z.fill(Vec3A::NAN);
+            return;
+        }
+        for ((zi, &ri), p) in z.iter_mut().zip(r).zip(self.0) {
+            *zi = *p * ri;
+        }
+    }
+}
+
 /// Solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
     /// Relative residual in the preconditioned norm (see the module docs). `≤ 0` or NaN means
-    /// "iterate until the residual is exactly zero or `max_iterations`".
+    /// "iterate until the residual is exactly zero or `max_iterations`" (unless `floor` stops
+    /// it first).
     pub tolerance: f32,
     /// Iteration cap; reaching it is not an error ([`Stats::converged`] is `false`).
     pub max_iterations: u32,
+    /// Absolute floor on `δ = rᵀ P r`: converged as soon as `δ ≤ floor`, whatever the relative
+    /// residual. Units of `bᵀ A⁻¹ b` (for the World's step: joules, see the module docs).
+    /// `≤ 0` or NaN turns it off.
+    pub floor: f32,
 }
 
 impl Default for Settings {
-    /// `tolerance = 1e-4`, `max_iterations = 200`: a generic starting point, not tuned.
+    /// `tolerance = 1e-4`, `max_iterations = 200`, no absolute floor: a generic starting
+    /// point, not tuned.
     fn default() -> Self {
         Self {
             tolerance: 1e-4,
             max_iterations: 200,
+            floor: 0.0,
         }
     }
 }
@@ -91,7 +145,7 @@ pub struct Stats {
     /// Final relative residual `sqrt(rᵀ P r / δ₀)` of the recursively updated residual (which
     /// drifts from the true `S (b − A x)` by rounding only).
     pub residual: f32,
-    /// `residual ≤ tolerance` was reached within `max_iterations`.
+    /// The relative test or the absolute floor was met within `max_iterations`.
     pub converged: bool,
 }
 
@@ -163,8 +217,9 @@ fn relative(delta: f64, reference: f64) -> f32 {
     }
 }
 
-/// Solves `S (A x − b) = 0`, `(I − S) x = (I − S) z` by modified PCG (Baraff & Witkin §5.3);
-/// see the module docs for the exact problem and convergence test.
+/// Solves `S (A x − b) = 0`, `(I − S) x = (I − S) z` by modified PCG (Baraff & Witkin §5.3)
+/// with the block-Jacobi preconditioner; see the module docs for the exact problem and
+/// convergence test, and [`solve_with`] for any other preconditioner.
 ///
 /// * `a`: the SPD operator, `y = A x`.
 /// * `precond`: `P`, the inverse of `A`'s 3×3 block diagonal (block Jacobi), one SPD block per
@@ -191,6 +246,44 @@ pub fn solve(
     settings: &Settings,
     work: Work<'_>,
 ) -> Result<Stats, PcgError> {
+    if let Some(f) = filter {
+        if f.len() != b.len() {
+            return Err(PcgError::LengthMismatch);
+        }
+        if !f.iter().all(Mat3A::is_finite) {
+            return Err(PcgError::NonFinite);
+        }
+    }
+    if precond.len() != b.len() {
+        return Err(PcgError::LengthMismatch);
+    }
+    if !precond.iter().all(Mat3A::is_finite) {
+        // Length errors of x and work win over this, as before the preconditioner was
+        // pluggable.
+        if x.len() != b.len()
+            || [work.r.len(), work.c.len(), work.q.len(), work.s.len()]
+                .iter()
+                .any(|&l| l < b.len())
+        {
+            return Err(PcgError::LengthMismatch);
+        }
+        return Err(PcgError::NonFinite);
+    }
+    solve_with(a, &mut BlockJacobi(precond), filter, b, x, settings, work)
+}
+
+/// [`solve`] with any SPD [`Preconditioner`]: the same problem, filter semantics, convergence
+/// test, numerics and errors. The preconditioner is applied `iterations + 2` times (once for
+/// `δ₀`, once for the initial residual, once per iteration).
+pub fn solve_with(
+    a: &impl Operator,
+    precond: &mut impl Preconditioner,
+    filter: Option<&[Mat3A]>,
+    b: &[Vec3A],
+    x: &mut [Vec3A],
+    settings: &Settings,
+    work: Work<'_>,
+) -> Result<Stats, PcgError> {
     match filter {
         None => run(a, precond, &Free, b, x, settings, work),
         Some(f) => {
@@ -207,7 +300,7 @@ pub fn solve(
 
 fn run<F: Filter>(
     a: &impl Operator,
-    precond: &[Mat3A],
+    precond: &mut impl Preconditioner,
     f: &F,
     b: &[Vec3A],
     x: &mut [Vec3A],
@@ -215,7 +308,7 @@ fn run<F: Filter>(
     work: Work<'_>,
 ) -> Result<Stats, PcgError> {
     let n = b.len();
-    if x.len() != n || precond.len() != n {
+    if x.len() != n {
         return Err(PcgError::LengthMismatch);
     }
     let (Some(r), Some(c), Some(q), Some(s)) = (
@@ -226,22 +319,24 @@ fn run<F: Filter>(
     ) else {
         return Err(PcgError::LengthMismatch);
     };
-    if !b.iter().all(|v| v.is_finite())
-        || !x.iter().all(|v| v.is_finite())
-        || !precond.iter().all(Mat3A::is_finite)
-    {
+    if !b.iter().all(|v| v.is_finite()) || !x.iter().all(|v| v.is_finite()) {
         return Err(PcgError::NonFinite);
     }
-    // Compare squared norms in f64; a NaN or non-positive tolerance becomes 0.
+    // Compare squared norms in f64; a NaN or non-positive tolerance or floor becomes 0.
     let tol = f64::from(settings.tolerance);
     let tol2 = if tol > 0.0 { tol * tol } else { 0.0 };
+    let floor = f64::from(settings.floor);
+    let floor = if floor > 0.0 { floor } else { 0.0 };
 
     // δ₀ = (S b)ᵀ P (S b): §5.3's scale for "small", filtered so that forces in constrained
-    // directions (which the constraints absorb) do not loosen the test.
+    // directions (which the constraints absorb) do not loosen the test. q = S b, s = P q.
+    for (i, (qi, &bi)) in q.iter_mut().zip(b.iter()).enumerate() {
+        *qi = f.at(i, bi);
+    }
+    precond.apply(q, s, c);
     let mut delta0 = 0.0f64;
-    for (i, (&bi, p)) in b.iter().zip(precond.iter()).enumerate() {
-        let sb = f.at(i, bi);
-        delta0 += dot64(sb, *p * sb);
+    for (&qi, &si) in q.iter().zip(s.iter()) {
+        delta0 += dot64(qi, si);
     }
 
     // r = S (b − A x): the warm start already carries the prescribed components, so this is
@@ -251,16 +346,17 @@ fn run<F: Filter>(
         *ri = f.at(i, bi - *ri);
     }
     // c = S P r, δ = rᵀ c (= rᵀ P r since S r = r and S is a symmetric projection).
+    precond.apply(r, s, q);
     let mut delta = 0.0f64;
-    for (i, ((ci, &ri), p)) in c.iter_mut().zip(r.iter()).zip(precond.iter()).enumerate() {
-        *ci = f.at(i, *p * ri);
+    for (i, ((ci, &ri), &si)) in c.iter_mut().zip(r.iter()).zip(s.iter()).enumerate() {
+        *ci = f.at(i, si);
         delta += dot64(ri, *ci);
     }
     if !delta0.is_finite() || !delta.is_finite() || delta < 0.0 {
         return Err(PcgError::Breakdown);
     }
     let reference = if delta0 > 0.0 { delta0 } else { delta };
-    let threshold = tol2 * reference;
+    let threshold = (tol2 * reference).max(floor);
 
     let mut stats = Stats {
         iterations: 0,
@@ -293,19 +389,16 @@ fn run<F: Filter>(
             return Err(PcgError::Breakdown);
         }
 
-        // One fused pass: x += α c, r −= α q, s = P r, δ_new = rᵀ s.
-        let mut delta_new = 0.0f64;
-        for ((((xi, ri), si), (&ci, &qi)), p) in x
-            .iter_mut()
-            .zip(r.iter_mut())
-            .zip(s.iter_mut())
-            .zip(c.iter().zip(q.iter()))
-            .zip(precond.iter())
-        {
+        // x += α c, r −= α q; then s = P r (q is dead until the next product: the
+        // preconditioner's scratch), δ_new = rᵀ s.
+        for ((xi, ri), (&ci, &qi)) in x.iter_mut().zip(r.iter_mut()).zip(c.iter().zip(q.iter())) {
             *xi += alpha * ci;
             *ri -= alpha * qi;
-            *si = *p * *ri;
-            delta_new += dot64(*ri, *si);
+        }
+        precond.apply(r, s, q);
+        let mut delta_new = 0.0f64;
+        for (&ri, &si) in r.iter().zip(s.iter()) {
+            delta_new += dot64(ri, si);
         }
         stats.iterations += 1;
         if !delta_new.is_finite() || delta_new < 0.0 {
@@ -559,6 +652,7 @@ mod tests {
         Settings {
             tolerance,
             max_iterations,
+            floor: 0.0,
         }
     }
 

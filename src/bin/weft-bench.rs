@@ -1,12 +1,14 @@
 //! weft-bench: per-step cost of the runtime on N×N-vertex sheets.
 //!
-//! `cargo run --release --bin weft-bench -- --grid N [--steps S] [--effects LIST] [--json]`
+//! `cargo run --release --bin weft-bench -- --grid N [--steps S] [--effects LIST]
+//! [--solver multigrid|jacobi] [--tolerance T] [--json]`
 //!
 //! A 1 m × 1 m sheet of a bundled anisotropic cell (homogenized here, through the same blob the
 //! engine would load), hanging with two adjacent corners pinned, dt = 1/60 s, a sphere in front
 //! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
 //! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
-//! it off alone.
+//! it off alone. Speed is never quoted alone: every run also reports the steps the energy
+//! balance redid or refused, the energy it removed, and the worst edge strain.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -15,7 +17,7 @@ use clap::Parser;
 use glam::Vec3A;
 use weft::blob::Blob;
 use weft::collide::{Collider, Shape};
-use weft::world::{effects, Capacity, ClothDef, Materials, Settings, World};
+use weft::world::{effects, Capacity, ClothDef, Materials, Settings, Solver, World};
 
 #[derive(Parser)]
 #[command(about = "Per-step cost of the weft runtime on an N×N-vertex sheet")]
@@ -41,6 +43,9 @@ struct Args {
     /// configuration, so an effects table shows each effect's own cost.
     #[arg(long)]
     iterations: Option<u32>,
+    /// The CG preconditioner: `multigrid` (the default) or `jacobi` (block Jacobi).
+    #[arg(long, default_value = "multigrid")]
+    solver: String,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -83,6 +88,37 @@ struct Run {
     cg_mean: f64,
     converged: f64,
     world_bytes: usize,
+    /// Steps the energy balance redid, steps refused, energy it removed (J).
+    redone: u32,
+    refused: u32,
+    removed: f64,
+    /// Largest |edge length / rest length − 1| over the timed steps.
+    worst_strain: f64,
+}
+
+fn parse_solver(name: &str) -> Result<Solver, String> {
+    match name {
+        "multigrid" | "mg" => Ok(Solver::Multigrid),
+        "jacobi" | "block-jacobi" => Ok(Solver::BlockJacobi),
+        _ => Err(format!("unknown solver '{name}' (multigrid or jacobi)")),
+    }
+}
+
+/// Largest relative change of any triangle edge's length from its rest length.
+fn worst_edge_strain(world: &World<'_>) -> f64 {
+    let (x, rest) = (world.positions(), world.rest_positions());
+    let mut worst = 0.0f64;
+    for t in world.triangles() {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (a, b) = (a as usize, b as usize);
+            let l = f64::from((x[a] - x[b]).length());
+            let l0 = f64::from((rest[a] - rest[b]).length());
+            if l0 > 0.0 {
+                worst = worst.max((l / l0 - 1.0).abs());
+            }
+        }
+    }
+    worst
 }
 
 fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
@@ -123,6 +159,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
     };
     let mut world = World::new(&mut mem, cap, &def, Materials::Blob(blob), settings)
         .map_err(|e| format!("init: {e:?}"))?;
+    world.set_solver(parse_solver(&args.solver)?);
     let top = (n - 1) * n;
     for corner in [top, top + n - 1] {
         world
@@ -145,12 +182,22 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
     let mut times = Vec::with_capacity(steps as usize);
     let mut iterations = 0u64;
     let mut converged = 0u32;
+    let (mut redone, mut refused, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
     for _ in 0..steps {
         let t0 = Instant::now();
-        let s = world.step().map_err(|e| format!("{e:?}"))?;
+        let r = world.step();
         times.push(t0.elapsed().as_secs_f64() * 1e6);
-        iterations += s.iterations as u64;
-        converged += s.converged as u32;
+        match r {
+            Ok(s) => {
+                iterations += s.iterations as u64;
+                converged += s.converged as u32;
+                redone += (s.redone > 0) as u32;
+                removed += f64::from(s.energy_removed);
+            }
+            Err(weft::world::StepError::Unstable) => refused += 1,
+            Err(e) => return Err(format!("{e:?}")),
+        }
+        worst_strain = worst_strain.max(worst_edge_strain(&world));
     }
     times.sort_by(|a, b| a.total_cmp(b));
     Ok(Run {
@@ -159,6 +206,10 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         cg_mean: iterations as f64 / steps.max(1) as f64,
         converged: converged as f64 / steps.max(1) as f64,
         world_bytes: bytes,
+        redone,
+        refused,
+        removed,
+        worst_strain,
     })
 }
 
@@ -231,6 +282,11 @@ fn real_main(args: &Args) -> Result<(), String> {
                 "cg_iterations_mean": r.cg_mean,
                 "converged_fraction": r.converged,
                 "world_bytes": r.world_bytes,
+                "solver": args.solver,
+                "steps_redone": r.redone,
+                "steps_refused": r.refused,
+                "energy_removed_j": r.removed,
+                "worst_edge_strain": r.worst_strain,
             })
         );
     } else {
@@ -244,6 +300,12 @@ fn real_main(args: &Args) -> Result<(), String> {
             r.cg_mean, args.tolerance
         );
         println!("converged        {:.0}% of steps", r.converged * 100.0);
+        println!("solver           {}", args.solver);
+        println!(
+            "energy balance   {} steps redone, {} refused, {:.3e} J removed",
+            r.redone, r.refused, r.removed
+        );
+        println!("worst edge strain {:.4}%", r.worst_strain * 100.0);
         println!(
             "world memory     {} bytes ({:.2} MB)",
             r.world_bytes,

@@ -123,34 +123,10 @@ struct BlockLayout {
     total: usize,
 }
 
-/// `Capacity::world_bytes` with overflow checks: it is affine in the five counts (each array
-/// is a count times an element size plus alignment slack), so it is evaluated from its value
-/// at zero and at each unit capacity in `u64`. `tests` check it against `world_bytes`.
+/// The kernel's own overflow-checked byte count, bounded so that the block layout's sums
+/// below cannot overflow either.
 fn world_bytes_checked(c: &Capacity) -> Option<usize> {
-    let at = |v, t, e, cl, p| {
-        Capacity {
-            vertices: v,
-            triangles: t,
-            edges: e,
-            colliders: cl,
-            pins: p,
-        }
-        .world_bytes() as u64
-    };
-    let base = at(0, 0, 0, 0, 0);
-    let terms = [
-        (at(1, 0, 0, 0, 0), c.vertices),
-        (at(0, 1, 0, 0, 0), c.triangles),
-        (at(0, 0, 1, 0, 0), c.edges),
-        (at(0, 0, 0, 1, 0), c.colliders),
-        (at(0, 0, 0, 0, 1), c.pins),
-    ];
-    let mut total = base;
-    for (unit, n) in terms {
-        let per = unit.checked_sub(base)?;
-        total = total.checked_add(per.checked_mul(n as u64)?)?;
-    }
-    let total = usize::try_from(total).ok()?;
+    let total = c.checked_world_bytes()?;
     (total <= isize::MAX as usize / 2).then_some(total)
 }
 

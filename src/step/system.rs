@@ -1,15 +1,22 @@
 //! Stage 3 of a substep: the system `A = (1 + hα) M + (hβ + h²)(K_w + B Q) + h D_air`
 //! (`D_air = Σ drag·area·n nᵀ`, the implicit air drag), its preconditioner, and the filtered
-//! PCG solve of `A Δv = rhs` (Baraff & Witkin §5.3, `pcg.rs`).
+//! PCG solve of `A Δv = rhs` (Baraff & Witkin §5.3, `pcg.rs`), preconditioned by the multilevel
+//! V-cycle of `multigrid.rs` (the default) or by block Jacobi.
 //!
 //! `K_w` was assembled this substep anyway (`forces.rs`): mass, bending and drag are folded
 //! into the same 3×3 blocks, so a CG iteration is one block-sparse product.
 
 use glam::{Mat3A, Vec3, Vec3A};
 
+use crate::multigrid;
 use crate::pcg;
 use crate::sparse::{self, Pattern};
-use crate::world::{effects, Arrays, Counts, Settings, StepError};
+use crate::world::{effects, Arrays, Counts, Settings, Solver, StepError};
+
+/// Absolute floor of the step's CG (`pcg::Settings::floor`) as a velocity: the solve stops
+/// once the remaining error of `Δv` is below this RMS velocity (m/s) in the energy norm, so a
+/// cloth at rest (right-hand side = round-off) costs no iterations.
+const FLOOR_VELOCITY: f64 = 1e-6;
 
 /// Solves for `a.dv`. With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so
 /// that `A Δv − rhs` is the impulse the pins and contacts supplied (their work enters the
@@ -33,6 +40,7 @@ pub(crate) fn solve(
     let settings = pcg::Settings {
         tolerance: st.tolerance,
         max_iterations: st.max_iterations,
+        floor: (c.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
     };
     if eff & effects::WARPING != 0 && st.per_node_warping {
         #[cfg(feature = "research")]
@@ -48,9 +56,8 @@ pub(crate) fn solve(
         let b = if bending_on { *q } else { 0.0 };
         *k = (*k + Mat3A::from_diagonal(Vec3::splat(b))) * c_k;
     }
-    for ((((d, p), &m), &q), (nrm, &area)) in a.k_diag[..n]
+    for (((d, &m), &q), (nrm, &area)) in a.k_diag[..n]
         .iter_mut()
-        .zip(&mut a.precond[..n])
         .zip(&a.mass[..n])
         .zip(&a.q_diag[..n])
         .zip(a.normals[..n].iter().zip(&a.area[..n]))
@@ -60,7 +67,6 @@ pub(crate) fn solve(
         if drag > 0.0 {
             *d += outer(*nrm, *nrm) * (h * drag * area);
         }
-        *p = pcg::invert_block(*d);
     }
     let op = sparse::BlockMatrix {
         diag: &a.k_diag[..n],
@@ -70,28 +76,54 @@ pub(crate) fn solve(
         },
         off: &a.k_off[..c.nnz],
     };
-    let work = pcg::Work {
-        r: &mut a.w_r[..n],
-        c: &mut a.w_c[..n],
-        q: &mut a.w_q[..n],
-        s: &mut a.w_s[..n],
-    };
     let filter = if constrained {
         Some(&a.filter[..n])
     } else {
         None
     };
     let dv = &mut a.dv[..n];
-    let stats = pcg::solve(
-        &op,
-        &a.precond[..n],
-        filter,
-        &a.rhs[..n],
-        dv,
-        &settings,
-        work,
-    )
-    .map_err(|_| StepError::SolverBreakdown)?;
+    let rhs = &a.rhs[..n];
+    let mut result = Err(pcg::PcgError::Breakdown);
+    if c.solver == Solver::Multigrid {
+        // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
+        // the forces stage).
+        let (vectors, dense) = a.force.split_at_mut(c.mg_vectors.min(a.force.len()));
+        let mem = multigrid::Memory {
+            index: a.scratch_a,
+            blocks: bytemuck::cast_slice_mut(&mut a.precond[..]),
+            dense: bytemuck::cast_slice_mut(dense),
+            vectors,
+        };
+        let options = multigrid::Options::default();
+        if let Ok(mut mg) = multigrid::Multigrid::new(mem, op, filter, options) {
+            let work = pcg::Work {
+                r: &mut a.w_r[..n],
+                c: &mut a.w_c[..n],
+                q: &mut a.w_q[..n],
+                s: &mut a.w_s[..n],
+            };
+            result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
+        }
+    }
+    let stats = match result {
+        Ok(stats) => stats,
+        Err(_) => {
+            // Block Jacobi: the design's named solver, and the fallback should the multilevel
+            // cycle ever break down (not positive); it restarts from the partial iterate,
+            // whose constrained components the solve has kept.
+            for (p, d) in a.precond[..n].iter_mut().zip(&a.k_diag[..n]) {
+                *p = pcg::invert_block(*d);
+            }
+            let work = pcg::Work {
+                r: &mut a.w_r[..n],
+                c: &mut a.w_c[..n],
+                q: &mut a.w_q[..n],
+                s: &mut a.w_s[..n],
+            };
+            pcg::solve(&op, &a.precond[..n], filter, rhs, dv, &settings, work)
+                .map_err(|_| StepError::SolverBreakdown)?
+        }
+    };
     if constrained {
         op.mul(dv, &mut a.w_q[..n])
             .map_err(|_| StepError::SolverBreakdown)?;

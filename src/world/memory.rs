@@ -8,6 +8,7 @@ use super::InitError;
 use crate::collide::{Collider, Shape};
 use crate::membrane::Element;
 use crate::mesh;
+use crate::multigrid;
 
 /// How much a world holds. Fixed at init; memory is [`Capacity::world_bytes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -90,6 +91,26 @@ macro_rules! arrays {
                 $( total = total.saturating_add(slot_bytes::<$ty>($count)); )*
                 total
             }
+
+            /// [`Capacity::world_bytes`] with every product and sum checked: `None` when the
+            /// count does not fit a `usize` (then no memory block can hold the world).
+            pub const fn checked_world_bytes(&self) -> Option<usize> {
+                let $cap = self;
+                let mut total = 0usize;
+                $(
+                    let Some(bytes) = ($count).checked_mul(core::mem::size_of::<$ty>()) else {
+                        return None;
+                    };
+                    let Some(slot) = bytes.checked_add(core::mem::align_of::<$ty>() - 1) else {
+                        return None;
+                    };
+                    let Some(sum) = total.checked_add(slot) else {
+                        return None;
+                    };
+                    total = sum;
+                )*
+                Some(total)
+            }
         }
 
         pub(super) fn carve<'a>($cap: &Capacity, carver: &mut Carver<'a>) -> Result<Arrays<'a>, InitError> {
@@ -119,7 +140,9 @@ arrays! { cap;
     vt: u32 = [cap.t().saturating_mul(3); 0],
     ring_start: u32 = [cap.v().saturating_add(1); 0],
     ring: u32 = [cap.e().saturating_mul(2); 0],
-    scratch_a: u32 = [cap.v(); 0],
+    /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`; its
+    /// per-solve memory is lent by `precond` and `force`, see `step/system.rs`).
+    scratch_a: u32 = [max(cap.v(), multigrid::index_len(cap.v(), cap.b())); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
     row_start: u32 = [cap.v().saturating_add(1); 0],
@@ -131,8 +154,9 @@ arrays! { cap;
     /// Rotated membrane stiffness `K_w = Σ_e R_e K_e R_eᵀ` (N/m), re-assembled every substep.
     k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
     k_off: Mat3A = [cap.b(); Mat3A::ZERO],
-    /// Elastic forces of the current substep (N).
-    force: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Elastic forces of the current substep (N); during the solve, the multilevel vectors
+    /// and coarsest factor.
+    force: Vec3A = [max(cap.v(), mg_vectors(cap).saturating_add(multigrid::dense_len(cap.v(), cap.b()).div_ceil(2))); Vec3A::ZERO],
     /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
     q_diag: f32 = [cap.v(); 0.0],
     q_off: f32 = [cap.b(); 0.0],
@@ -147,7 +171,8 @@ arrays! { cap;
     w_c: Vec3A = [cap.v(); Vec3A::ZERO],
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
-    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
+    precond: Mat3A = [max(cap.v(), multigrid::blocks_len(cap.v(), cap.b()).div_ceil(12)); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
     /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
@@ -160,6 +185,19 @@ arrays! { cap;
     pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
     pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
+}
+
+/// `Vec3A`s of `force` that hold the multilevel vectors during a solve.
+pub(crate) const fn mg_vectors(cap: &Capacity) -> usize {
+    multigrid::vectors_len(cap.v(), cap.b())
+}
+
+const fn max(a: usize, b: usize) -> usize {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes

@@ -18,7 +18,7 @@ mod settings;
 pub use error::{EditError, Energy, InitError, StepError, StepStats};
 pub(crate) use memory::Arrays;
 pub use memory::Capacity;
-pub use settings::{effects, Settings};
+pub use settings::{effects, Settings, Solver};
 
 use core::ops::Not;
 #[cfg(feature = "research")]
@@ -31,6 +31,7 @@ use crate::blob::Blob;
 use crate::collide::{Collider, Shape};
 use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
+use crate::multigrid;
 use crate::normals;
 use crate::sparse::{self, Pattern};
 use crate::step::{self, monitor};
@@ -45,6 +46,11 @@ pub(crate) struct Counts {
     pub nnz: usize,
     pub pins: usize,
     pub colliders: usize,
+    /// The CG preconditioner, and the `Vec3A`s of `force` its vectors borrow.
+    pub solver: Solver,
+    pub mg_vectors: usize,
+    /// Σ lumped masses (kg): the scale of the solve's absolute floor.
+    pub total_mass: f64,
 }
 
 /// the fine reference), areal density and bending stiffness.
@@ -172,6 +178,7 @@ pub struct World<'a> {
     last_input: (f64, f64),
     asleep: bool,
     last: StepStats,
+    solver: Solver,
 }
 
 impl<'a> World<'a> {
@@ -241,6 +248,7 @@ impl<'a> World<'a> {
             last_input: (0.0, 0.0),
             asleep: false,
             last: StepStats::default(),
+            solver: Solver::default(),
         };
         w.build(cloth, materials)?;
         Ok(w)
@@ -438,6 +446,23 @@ impl<'a> World<'a> {
             }
         }
 
+        // The multilevel hierarchy, aggregated over the mesh edges; its scratch is the
+        // stiffness blocks, not assembled yet. A mesh it cannot be built for (scratch too
+        // small: far more isolated vertices than edges) steps with block Jacobi.
+        let a = &mut self.a;
+        let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let _ = multigrid::build(
+            &Pattern {
+                row_start: &a.row_start[..n + 1],
+                cols: &a.cols[..self.nnz],
+            },
+            Some(multigrid::Graph {
+                start: &a.ring_start[..n + 1],
+                adjacency: &a.ring[..2 * self.ne],
+            }),
+            a.scratch_a,
+            scratch,
+        );
         // Normals (and, for per-node warping, warm-started rotations) of the initial placement.
         self.refresh_frames(8);
         Ok(())
@@ -505,6 +530,21 @@ impl<'a> World<'a> {
     }
     pub fn total_mass(&self) -> f64 {
         self.total_mass
+    }
+
+    /// The CG preconditioner of the step.
+    pub fn solver(&self) -> Solver {
+        self.solver
+    }
+
+    /// The multilevel hierarchy's shape (built at init for any solver).
+    pub fn multigrid_info(&self) -> Option<multigrid::Info> {
+        multigrid::info(self.a.scratch_a)
+    }
+
+    /// Chooses the CG preconditioner of the following steps.
+    pub fn set_solver(&mut self, solver: Solver) {
+        self.solver = solver;
     }
 
     /// Changes scene parameters; wakes the world when anything changed.
@@ -827,6 +867,9 @@ impl<'a> World<'a> {
             nnz: self.nnz,
             pins: self.pins,
             colliders: self.colliders,
+            solver: self.solver,
+            mg_vectors: memory::mg_vectors(&self.capacity),
+            total_mass: self.total_mass,
         }
     }
 

@@ -136,3 +136,16 @@ impl Settings {
         Ok(())
     }
 }
+
+/// The preconditioner of the step's CG ([`World::set_solver`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Solver {
+    /// The inverse 3×3 diagonal blocks: cheap per iteration, but the iteration count grows
+    /// with the mesh resolution.
+    BlockJacobi,
+    /// The multilevel preconditioner of [`crate::multigrid`]: a V-cycle per iteration, an
+    /// iteration count that does not grow with the mesh. Per-node warping
+    /// ([`Settings::per_node_warping`]) always uses block Jacobi.
+    #[default]
+    Multigrid,
+}
