@@ -87,8 +87,11 @@ pub(crate) fn solve(
     if c.solver == Solver::Multigrid {
         // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
         // the forces stage).
-        let (vectors, dense) = a.force.split_at_mut(c.mg_vectors.min(a.force.len()));
+        let (vectors, dense) = a
+            .force
+            .split_at_mut(multigrid::vectors_len(n, c.nnz).min(n));
         let mem = multigrid::Memory {
+            agg: &a.scratch_b[..n],
             index: a.scratch_a,
             blocks: bytemuck::cast_slice_mut(&mut a.precond[..]),
             dense: bytemuck::cast_slice_mut(dense),

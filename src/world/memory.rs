@@ -8,7 +8,6 @@ use super::InitError;
 use crate::collide::{Collider, Shape};
 use crate::membrane::Element;
 use crate::mesh;
-use crate::multigrid;
 
 /// How much a world holds. Fixed at init; memory is [`Capacity::world_bytes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,9 +139,12 @@ arrays! { cap;
     vt: u32 = [cap.t().saturating_mul(3); 0],
     ring_start: u32 = [cap.v().saturating_add(1); 0],
     ring: u32 = [cap.e().saturating_mul(2); 0],
-    /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`; its
-    /// per-solve memory is lent by `precond` and `force`, see `step/system.rs`).
-    scratch_a: u32 = [max(cap.v(), multigrid::index_len(cap.v(), cap.b())); 0],
+    /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`):
+    /// `scratch_a` its coarse levels, `scratch_b` the finest level's aggregate map; its
+    /// per-solve memory is lent by `precond` and `force` (see `step/system.rs`). So the
+    /// multilevel solver adds no memory; a mesh too small for these budgets (~300 vertices)
+    /// steps with block Jacobi.
+    scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
     row_start: u32 = [cap.v().saturating_add(1); 0],
@@ -156,7 +158,7 @@ arrays! { cap;
     k_off: Mat3A = [cap.b(); Mat3A::ZERO],
     /// Elastic forces of the current substep (N); during the solve, the multilevel vectors
     /// and coarsest factor.
-    force: Vec3A = [max(cap.v(), mg_vectors(cap).saturating_add(multigrid::dense_len(cap.v(), cap.b()).div_ceil(2))); Vec3A::ZERO],
+    force: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
     q_diag: f32 = [cap.v(); 0.0],
     q_off: f32 = [cap.b(); 0.0],
@@ -172,7 +174,7 @@ arrays! { cap;
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
-    precond: Mat3A = [max(cap.v(), multigrid::blocks_len(cap.v(), cap.b()).div_ceil(12)); Mat3A::IDENTITY],
+    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
     /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
@@ -185,19 +187,6 @@ arrays! { cap;
     pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
     pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
-}
-
-/// `Vec3A`s of `force` that hold the multilevel vectors during a solve.
-pub(crate) const fn mg_vectors(cap: &Capacity) -> usize {
-    multigrid::vectors_len(cap.v(), cap.b())
-}
-
-const fn max(a: usize, b: usize) -> usize {
-    if a > b {
-        a
-    } else {
-        b
-    }
 }
 
 /// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes

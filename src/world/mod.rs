@@ -46,9 +46,8 @@ pub(crate) struct Counts {
     pub nnz: usize,
     pub pins: usize,
     pub colliders: usize,
-    /// The CG preconditioner, and the `Vec3A`s of `force` its vectors borrow.
+    /// The CG preconditioner.
     pub solver: Solver,
-    pub mg_vectors: usize,
     /// Σ lumped masses (kg): the scale of the solve's absolute floor.
     pub total_mass: f64,
 }
@@ -460,6 +459,7 @@ impl<'a> World<'a> {
                 start: &a.ring_start[..n + 1],
                 adjacency: &a.ring[..2 * self.ne],
             }),
+            &mut a.scratch_b[..n],
             a.scratch_a,
             scratch,
         );
@@ -868,7 +868,6 @@ impl<'a> World<'a> {
             pins: self.pins,
             colliders: self.colliders,
             solver: self.solver,
-            mg_vectors: memory::mg_vectors(&self.capacity),
             total_mass: self.total_mass,
         }
     }
