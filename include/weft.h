@@ -763,7 +763,8 @@ typedef struct WeftSettings {
      */
     float drag;
     /**
-     * Linear solver relative residual, > 0. Default 1e-4.
+     * Linear solver relative residual, > 0. Default 1e-3 (the step's energy balance redoes a
+     * step that an inexact solve made gain energy).
      */
     float tolerance;
     /**

@@ -69,7 +69,8 @@ pub struct WeftSettings {
     /// Air drag coefficient, kg/(m²·s), ≥ 0: the force on a vertex is
     /// `drag · area · ((wind - v)·n) n`. Default 0.
     pub drag: f32,
-    /// Linear solver relative residual, > 0. Default 1e-4.
+    /// Linear solver relative residual, > 0. Default 1e-3 (the step's energy balance redoes a
+    /// step that an inexact solve made gain energy).
     pub tolerance: f32,
     /// Linear solver iteration cap per substep, 1..=10000. Default 200.
     pub max_iterations: u32,

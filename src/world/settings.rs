@@ -39,7 +39,10 @@ pub struct Settings {
     /// `drag · area · ((wind - v)·n) n`.
     pub wind: [f32; 3],
     pub drag: f32,
-    /// PCG relative residual and iteration cap (1..=[`Settings::MAX_ITERATIONS`]).
+    /// PCG relative residual and iteration cap (1..=[`Settings::MAX_ITERATIONS`]). The default
+    /// 1e-3: on weft-bench's 21×21 scene the worst edge strain differs from a 1e-4 solve's by
+    /// 0.08 % of the rest length at half the cost; a step an inexact solve made gain energy is
+    /// redone by the energy balance.
     pub tolerance: f32,
     pub max_iterations: u32,
     /// Warp with the paper's per-node rotations (Eq. 14–17) instead of per-element frames.
@@ -70,7 +73,7 @@ impl Default for Settings {
             damping_stiffness: 0.001,
             wind: [0.0; 3],
             drag: 0.0,
-            tolerance: 1e-4,
+            tolerance: 1e-3,
             max_iterations: 200,
             per_node_warping: false,
             rotation_iterations: 4,
