@@ -784,6 +784,12 @@ typedef struct WeftSettings {
      * Calm steps before sleeping. Default 30.
      */
     uint32_t sleep_frames;
+    /**
+     * Largest speed, m/s, ≥ 0, at which a contact pushes a vertex out of a collider it is
+     * inside (relative to the collider); deeper penetration is corrected by position only, so
+     * a cloth found inside a collider is put back, not launched. Default 1.
+     */
+    float max_depenetration_speed;
 } WeftSettings;
 
 /**

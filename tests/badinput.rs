@@ -242,6 +242,7 @@ fn wild_settings() -> impl Strategy<Value = Settings> {
                 rotation_iterations,
                 sleep_velocity,
                 sleep_frames,
+                ..Settings::default()
             },
         )
 }

@@ -474,7 +474,8 @@ fn c_layout_matches_rust() {
         max_iterations,
         rotation_iterations,
         sleep_velocity,
-        sleep_frames
+        sleep_frames,
+        max_depenetration_speed
     });
     layout!(WeftWorldDef {
         positions,

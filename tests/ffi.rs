@@ -551,6 +551,11 @@ fn create_checks_strides_buffers_and_settings() {
             "sleep_velocity",
         ),
         (
+            Box::new(|d| d.settings.max_depenetration_speed = f32::NAN),
+            WeftResult::InvalidSetting,
+            "max_depenetration_speed",
+        ),
+        (
             Box::new(|d| d.settings.damping_mass = -1.0),
             WeftResult::InvalidSetting,
             "damping_mass",

@@ -177,6 +177,7 @@ pub(super) fn settings_to_c(s: &Settings) -> WeftSettings {
         rotation_iterations: s.rotation_iterations,
         sleep_velocity: s.sleep_velocity,
         sleep_frames: s.sleep_frames,
+        max_depenetration_speed: s.max_depenetration_speed,
     }
 }
 
@@ -201,6 +202,7 @@ pub(super) fn settings_from_c(c: &WeftSettings, base: &Settings) -> FfiResult<Se
         rotation_iterations: c.rotation_iterations,
         sleep_velocity: c.sleep_velocity,
         sleep_frames: c.sleep_frames,
+        max_depenetration_speed: c.max_depenetration_speed,
     };
     s.validate().map_err(init_fault)?;
     Ok(s)

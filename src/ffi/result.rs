@@ -359,6 +359,7 @@ fn setting_name(field: &str) -> &'static CStr {
         "max_iterations" => c"max_iterations",
         "rotation_iterations" => c"rotation_iterations",
         "sleep_velocity" => c"sleep_velocity",
+        "max_depenetration_speed" => c"max_depenetration_speed",
         "effects" => c"effects",
         _ => c"settings",
     }

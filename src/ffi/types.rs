@@ -81,6 +81,10 @@ pub struct WeftSettings {
     pub sleep_velocity: f32,
     /// Calm steps before sleeping. Default 30.
     pub sleep_frames: u32,
+    /// Largest speed, m/s, ≥ 0, at which a contact pushes a vertex out of a collider it is
+    /// inside (relative to the collider); deeper penetration is corrected by position only, so
+    /// a cloth found inside a collider is put back, not launched. Default 1.
+    pub max_depenetration_speed: f32,
 }
 
 /// Everything `weft_world_create` needs to build a cloth. Get one from

@@ -9,7 +9,7 @@
 use glam::{Mat3A, Vec3A};
 
 use super::system::outer;
-use super::Substep;
+use super::{monitor, Substep};
 use crate::collide;
 use crate::mesh;
 use crate::world::{effects, Arrays, Counts, Settings};
@@ -61,8 +61,12 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
                 {
                     deepest = prox.distance - col.thickness;
                     let nrm = prox.normal;
-                    // end the substep on the offset surface, moving with the collider
-                    let target_vn = vs.dot(nrm) + (col.thickness - prox.distance) / h;
+                    // end the substep on the offset surface, moving with the collider, but
+                    // push out of a penetration no faster than the depenetration speed: the
+                    // projection after the step corrects the rest by position only
+                    let push =
+                        ((col.thickness - prox.distance) / h).min(st.max_depenetration_speed);
+                    let target_vn = vs.dot(nrm) + push;
                     let dvn = target_vn - vi.dot(nrm);
                     let filter = Mat3A::IDENTITY - outer(nrm, nrm);
                     a.filter[i] = filter;
@@ -125,13 +129,25 @@ pub(crate) fn constraint_work(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Su
 }
 
 /// After `x += h v`: friction for held contacts, projection out of every collider, pins
-/// exactly on target. Returns the vertices touching a collider and the work (J) moving
-/// colliders did through friction and projection.
+/// exactly on target. Returns the vertices touching a collider and the work (J) done from
+/// outside through friction and projection (moving colliders, depenetration).
 pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> (u32, f64) {
     let (n, h) = (c.n, sub.h);
     let pins = pins_on(c, st);
     let mut contacts = 0;
     let mut work = 0.0f64;
+    // The projection below moves vertices by position. Where a moving collider pushes, or a
+    // vertex began the substep inside a collider (the engine put it there, or a collider
+    // appeared around it) and is put back beyond the depenetration speed, that is work done
+    // on the cloth from outside: the potential energy it changes is input to the energy
+    // balance (measured, as it can be far from linear). A still collider's projection of a
+    // vertex that entered during the substep is not input: a gain there is the step's own.
+    let driven = collide_on(c, st) && projection_is_driven(a, c, st, sub);
+    let potential_before = if driven {
+        monitor::potential(a, c, st)
+    } else {
+        0.0
+    };
     if collide_on(c, st) {
         for i in 0..n {
             if pins && a.pin_of[i] != mesh::NONE {
@@ -159,8 +175,7 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
                 touched = true;
             }
             // Projection: nothing ends the substep deeper than `thickness`.
-            let x_before = a.x[i];
-            let mut pushed_by_moving = false;
+
             for col in &a.colliders[..c.colliders] {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
@@ -175,14 +190,8 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
                 );
                 if hit && vs != Vec3A::ZERO {
                     vs_held = vs;
-                    pushed_by_moving = true;
                 }
                 touched |= hit;
-            }
-            if pushed_by_moving {
-                // A moving collider that pushes a vertex out does work against the forces
-                // holding it there: `−f·δ`, with `f = rhs / h` the substep's force on it.
-                work -= f64::from((a.rhs[i] / h).dot(a.x[i] - x_before));
             }
             if touched && vs_held != Vec3A::ZERO {
                 // a moving surface does work m Δv · v_s through what it changed
@@ -197,5 +206,36 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
             a.x[i] = a.pin_previous[p].lerp(a.pin_target[p], sub.t);
         }
     }
+    if driven {
+        work += monitor::potential(a, c, st) - potential_before;
+    }
     (contacts, work)
+}
+
+/// Whether a moving collider will push a vertex out in this substep's projection, or a vertex
+/// began the substep deeper inside a collider than its contact could push it out of.
+fn projection_is_driven(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> bool {
+    let pins = pins_on(c, st);
+    for i in 0..c.n {
+        if pins && a.pin_of[i] != mesh::NONE {
+            continue;
+        }
+        // where the vertex began the substep (x was just advanced by exactly h v)
+        let (x, start) = (a.x[i], a.x[i] - a.v[i] * sub.h);
+        for col in &a.colliders[..c.colliders] {
+            let shape = col.previous.lerp(&col.shape, sub.t);
+            if shape.proximity(x).distance >= col.thickness {
+                continue;
+            }
+            if col.previous != col.shape {
+                return true;
+            }
+            let before = col.previous.lerp(&col.shape, sub.t0);
+            let depth = col.thickness - before.proximity(start).distance;
+            if depth > 0.1 * col.thickness + sub.h * st.max_depenetration_speed {
+                return true;
+            }
+        }
+    }
+    false
 }

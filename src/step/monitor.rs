@@ -64,6 +64,24 @@ pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Level {
     }
 }
 
+/// Elastic + bending energy and the gravitational potential `−Σ m g·x` (J) of the current
+/// positions: what a change of positions alone changes.
+pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> f64 {
+    let level = level(a, c, st);
+    let kinetic = kinetic(&a.mass[..c.n], &a.v[..c.n]);
+    let gravity = if st.effects & effects::GRAVITY != 0 {
+        let g = Vec3A::from(st.gravity);
+        -a.mass[..c.n]
+            .iter()
+            .zip(&a.x[..c.n])
+            .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
+            .sum::<f64>()
+    } else {
+        0.0
+    };
+    level.energy - kinetic + gravity
+}
+
 /// `Σ ½ m |v|²` (J).
 pub(crate) fn kinetic(mass: &[f32], v: &[Vec3A]) -> f64 {
     mass.iter()
