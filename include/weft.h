@@ -191,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3975728
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3926560
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is

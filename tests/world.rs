@@ -1010,3 +1010,42 @@ fn strong_drag_on_light_fabric_is_stable() {
         "{redone} redos, {removed} J removed"
     );
 }
+
+/// A static drape: a cloth dropped on a sphere (default settings, sleep on) comes to rest on
+/// it and sleeps, at 21×21 and 41×41, without sliding off.
+#[test]
+fn a_drape_on_a_sphere_rests_and_sleeps() {
+    for n in [21usize, 41] {
+        let mut sheet = Sheet::grid(n, n, 1.0, 1.0);
+        sheet.transform(|p| [p[0] - 0.5, p[1] - 0.5, 0.45]);
+        let mats = [anisotropic()];
+        let mut mem = memory(&sheet.capacity());
+        let settings = Settings {
+            effects: Settings::default().effects | effects::SLEEP,
+            ..Settings::default()
+        };
+        let mut w = world(&mut mem, &sheet, &mats, settings);
+        let sphere = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 0.3,
+        };
+        w.add_collider(Collider::new(sphere, 0.5, 0.005)).unwrap();
+        let mut slept = None;
+        for step in 0..1500 {
+            let s = w
+                .step()
+                .unwrap_or_else(|e| panic!("{n}×{n}, step {step}: {e:?}"));
+            if s.asleep {
+                slept = Some(step);
+                break;
+            }
+        }
+        let top = w.positions()[sheet.index(n / 2, n / 2) as usize];
+        println!("{n}×{n}: asleep at {slept:?}, centre at {top}");
+        assert!(slept.is_some(), "{n}×{n}: still moving after 25 s");
+        assert!(
+            (top - Vec3A::new(0.0, 0.0, 0.305)).length() < 0.02,
+            "{n}×{n}: slid off the top (centre vertex at {top})"
+        );
+    }
+}

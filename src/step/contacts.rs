@@ -14,6 +14,18 @@ use crate::collide;
 use crate::mesh;
 use crate::world::{effects, Arrays, Counts, Settings};
 
+/// Flag in `Arrays::contact`: static friction holds the vertex to its collider.
+pub(crate) const STICK: u32 = 1 << 31;
+
+/// The collider index of a contact state (out of range for `mesh::NONE`).
+fn collider_of(contact: u32) -> usize {
+    if contact == mesh::NONE {
+        usize::MAX
+    } else {
+        (contact & !STICK) as usize
+    }
+}
+
 fn collide_on(c: &Counts, st: &Settings) -> bool {
     st.effects & effects::COLLISION != 0 && c.colliders > 0
 }
@@ -45,7 +57,8 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
     let slop = |thickness: f32| 0.1 * thickness + fall;
     if collide {
         for i in 0..n {
-            a.contact_collider[i] = mesh::NONE;
+            let before_substep = a.contact[i];
+            a.contact[i] = mesh::NONE;
             let (xi, vi) = (a.x[i], a.v[i]);
             let mut deepest = f32::INFINITY;
             for (k, col) in a.colliders[..c.colliders].iter().enumerate() {
@@ -67,14 +80,24 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
                     let push =
                         ((col.thickness - prox.distance) / h).min(st.max_depenetration_speed);
                     let target_vn = vs.dot(nrm) + push;
-                    let dvn = target_vn - vi.dot(nrm);
-                    let filter = Mat3A::IDENTITY - outer(nrm, nrm);
-                    a.filter[i] = filter;
-                    a.dv[i] = filter * a.dv[i] + nrm * dvn;
-                    // the push the contact supplies beyond what the forces alone would do
-                    let free_dvn = a.rhs[i].dot(nrm) / a.mass[i].max(f32::MIN_POSITIVE);
-                    a.contact_push[i] = nrm * (dvn - free_dvn).max(0.0);
-                    a.contact_collider[i] = k as u32;
+                    if before_substep == k as u32 | STICK {
+                        // Static friction held it: it moves with the surface (all three
+                        // directions prescribed); the solve's impulse says whether the
+                        // friction cone still holds it (`resolve`).
+                        a.filter[i] = Mat3A::ZERO;
+                        a.dv[i] = vs - nrm * vs.dot(nrm) + nrm * target_vn - vi;
+                    } else {
+                        let filter = Mat3A::IDENTITY - outer(nrm, nrm);
+                        a.filter[i] = filter;
+                        a.dv[i] = filter * a.dv[i] + nrm * (target_vn - vi.dot(nrm));
+                    }
+                    // on the same collider it keeps sticking (or sliding): `resolve` decides
+                    // again from the solve's impulse; a new contact starts sliding
+                    a.contact[i] = if collider_of(before_substep) == k {
+                        before_substep
+                    } else {
+                        k as u32
+                    };
                     constrained = true;
                 }
             }
@@ -112,7 +135,7 @@ pub(crate) fn constraint_work(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Su
     }
     if collide_on(c, st) {
         for i in 0..c.n {
-            let Some(col) = a.colliders[..c.colliders].get(a.contact_collider[i] as usize) else {
+            let Some(col) = a.colliders[..c.colliders].get(collider_of(a.contact[i])) else {
                 continue;
             };
             if col.previous == col.shape || a.pin_of[i] != mesh::NONE {
@@ -156,20 +179,34 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
             let mut touched = false;
             let v_before = a.v[i];
             let mut vs_held = Vec3A::ZERO;
-            // Coulomb friction for the contacts the solve held: the tangential velocity
-            // relative to the surface shrinks by at most μ times the normal impulse.
-            if let Some(col) = a.colliders[..c.colliders].get(a.contact_collider[i] as usize) {
+            // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
+            // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a sliding
+            // one loses at most `μ J_n / m` of its tangential velocity relative to the surface
+            // and sticks once that stops it.
+            if let Some(col) = a.colliders[..c.colliders].get(collider_of(a.contact[i])) {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
                 let vs = shape.surface_velocity(&before, a.x[i], h);
-                let push = a.contact_push[i];
                 let nrm = shape.proximity(a.x[i]).normal;
-                let rel = a.v[i] - vs;
-                let vt = rel - nrm * rel.dot(nrm);
-                let vt_len = vt.length();
-                if vt_len > 0.0 {
-                    let scale = (1.0 - col.friction * push.length() / vt_len).max(0.0);
-                    a.v[i] -= vt * (1.0 - scale);
+                let impulse = a.w_q[i] - a.rhs[i];
+                let normal = impulse.dot(nrm).max(0.0);
+                let limit = col.friction * normal;
+                if a.contact[i] & STICK != 0 {
+                    let tangential = impulse - nrm * impulse.dot(nrm);
+                    if tangential.length() > limit {
+                        a.contact[i] &= !STICK;
+                    }
+                } else {
+                    let rel = a.v[i] - vs;
+                    let vt = rel - nrm * rel.dot(nrm);
+                    let vt_len = vt.length();
+                    let stop = limit / a.mass[i].max(f32::MIN_POSITIVE);
+                    if vt_len <= stop {
+                        a.v[i] -= vt;
+                        a.contact[i] |= STICK;
+                    } else {
+                        a.v[i] -= vt * (stop / vt_len);
+                    }
                 }
                 vs_held = vs;
                 touched = true;

@@ -176,11 +176,11 @@ arrays! { cap;
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
-    /// Contacts of the substep: the collider a vertex is held against (or `mesh::NONE`) and
-    /// the normal impulse per unit mass the contact supplies (along the outward normal, m/s),
-    /// which bounds Coulomb friction.
-    contact_collider: u32 = [cap.v(); mesh::NONE],
-    contact_push: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// Contacts: the collider a vertex is held against in this substep (or `mesh::NONE`),
+    /// with `step::contacts::STICK` set when static friction holds it; and the same at the
+    /// start of the step (a redone step starts from it again).
+    contact: u32 = [cap.v(); mesh::NONE],
+    contact_start: u32 = [cap.v(); mesh::NONE],
     /// Pin index of each vertex, or `mesh::NONE`.
     pin_of: u32 = [cap.v(); mesh::NONE],
     pin_vertex: u32 = [cap.p(); 0],

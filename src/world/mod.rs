@@ -703,6 +703,7 @@ impl<'a> World<'a> {
     /// Removes all colliders.
     pub fn clear_colliders(&mut self) {
         self.colliders = 0;
+        self.a.contact[..self.n].fill(mesh::NONE);
         self.wake();
     }
 
@@ -746,6 +747,7 @@ impl<'a> World<'a> {
         self.a.x_start[..n].copy_from_slice(&self.a.x[..n]);
         self.a.v_start[..n].copy_from_slice(&self.a.v[..n]);
         self.a.dv_start[..n].copy_from_slice(&self.a.dv[..n]);
+        self.a.contact_start[..n].copy_from_slice(&self.a.contact[..n]);
         let counts = self.counts();
         let start = match self.level {
             Some(level) => level,
@@ -850,6 +852,7 @@ impl<'a> World<'a> {
         self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
         self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
         self.a.dv[..n].copy_from_slice(&self.a.dv_start[..n]);
+        self.a.contact[..n].copy_from_slice(&self.a.contact_start[..n]);
         // A failed solve's Δv (maybe huge or NaN) must not warm-start the next step, or one
         // bad input breaks every later solve.
         if !self.a.dv[..n].iter().all(|d| d.is_finite()) {
