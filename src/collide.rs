@@ -156,13 +156,12 @@ impl Shape {
         let v = match (*from, *self) {
             (
                 Shape::Plane {
-                    normal: n0,
+                    normal: _,
                     offset: o0,
                 },
                 Shape::Plane { normal, offset },
             ) => {
                 // only the normal motion of a plane is observable
-                let _ = n0;
                 normal * (offset - o0)
             }
             (Shape::Sphere { center: c0, .. }, Shape::Sphere { center, .. }) => center - c0,

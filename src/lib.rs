@@ -53,6 +53,7 @@ pub mod research;
 pub mod sparse;
 mod step;
 pub mod strided;
+pub mod voigt;
 pub mod world;
 
 #[cfg(feature = "std")]
@@ -60,5 +61,4 @@ pub mod cell;
 #[cfg(feature = "std")]
 pub mod homogenize;
 
-/// A 3×3 Voigt stiffness (or compliance) tensor, row-major, order `[11, 22, 12]`, engineering shear.
-pub type Voigt = [[f64; 3]; 3];
+pub use voigt::Voigt;

@@ -24,8 +24,9 @@ pub(crate) fn update_rotations(a: &mut Arrays<'_>, c: &Counts, iterations: u32) 
     {
         return;
     }
-    // A rotation update that refuses its input keeps the previous rotations (warm starts).
-    let _ = rotation::update_rotations(
+    // A rotation update that refuses its input (inconsistent lengths, which a world never
+    // has) leaves the rotations at identity: plain linear FEM rather than stale frames.
+    let updated = rotation::update_rotations(
         &a.ring_start[..n + 1],
         &a.ring[..a.ring_start.get(n).map_or(0, |&e| e as usize)],
         &a.mass[..n],
@@ -35,6 +36,9 @@ pub(crate) fn update_rotations(a: &mut Arrays<'_>, c: &Counts, iterations: u32) 
         &mut a.rot[..n],
         iterations,
     );
+    if updated.is_err() {
+        a.rot[..n].fill(Quat::IDENTITY);
+    }
 }
 
 /// Eq. 17's force on the unrotated `K` (assembled with `warping = false`) into `out`.

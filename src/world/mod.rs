@@ -447,10 +447,11 @@ impl<'a> World<'a> {
 
         // The multilevel hierarchy, aggregated over the mesh edges; its scratch is the
         // stiffness blocks, not assembled yet. A mesh it cannot be built for (scratch too
-        // small: far more isolated vertices than edges) steps with block Jacobi.
+        // small: far more isolated vertices than edges) steps with block Jacobi: its index
+        // then holds no hierarchy and `Multigrid::new` refuses it.
         let a = &mut self.a;
         let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
-        let _ = multigrid::build(
+        let built = multigrid::build(
             &Pattern {
                 row_start: &a.row_start[..n + 1],
                 cols: &a.cols[..self.nnz],
@@ -463,6 +464,9 @@ impl<'a> World<'a> {
             a.scratch_a,
             scratch,
         );
+        if built.is_err() {
+            a.scratch_a.fill(0);
+        }
         // Normals (and, for per-node warping, warm-started rotations) of the initial placement.
         self.refresh_frames(8);
         Ok(())
@@ -917,6 +921,7 @@ impl<'a> World<'a> {
     }
 
     /// Vertex normals (and, for per-node warping, the rotations) of the current positions.
+    #[cfg_attr(not(feature = "research"), allow(unused_variables))]
     fn refresh_frames(&mut self, iterations: u32) {
         let n = self.n;
         #[cfg(feature = "research")]
@@ -925,7 +930,6 @@ impl<'a> World<'a> {
             crate::research::per_node::update_rotations(&mut self.a, &counts, iterations);
             return;
         }
-        let _ = iterations;
         let a = &mut self.a;
         // Only fails on inconsistent lengths, which the world never has; the previous
         // normals then stay, which is what a normal's fallback is anyway.
