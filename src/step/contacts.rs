@@ -49,11 +49,12 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
     // A cloth resting on a collider sits exactly on it after each substep; with a strict test
     // its vertices flicker in and out of the contact set, and the ones let go fall in for a
     // substep and are projected back against the membrane's tension, which puts energy in.
-    let fall = if st.effects & effects::GRAVITY != 0 {
-        Vec3A::from(st.gravity).length() * h * h
+    let gravity = if st.effects & effects::GRAVITY != 0 {
+        Vec3A::from(st.gravity)
     } else {
-        0.0
+        Vec3A::ZERO
     };
+    let fall = gravity.length() * h * h;
     let slop = |thickness: f32| 0.1 * thickness + fall;
     if collide {
         for i in 0..n {
@@ -75,10 +76,15 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
                     deepest = prox.distance - col.thickness;
                     let nrm = prox.normal;
                     // end the substep on the offset surface, moving with the collider, but
-                    // push out of a penetration no faster than the depenetration speed: the
-                    // projection after the step corrects the rest by position only
-                    let push =
-                        ((col.thickness - prox.distance) / h).min(st.max_depenetration_speed);
+                    // push out of a penetration no faster than the depenetration speed (the
+                    // projection after the step corrects the rest by position only); and a
+                    // vertex held within the slop above the surface is drawn to it no faster
+                    // than gravity's pull toward the surface alone would in a substep (held,
+                    // not glued)
+                    let pull = (-gravity.dot(nrm)).max(0.0) * h;
+                    let push = ((col.thickness - prox.distance) / h)
+                        .min(st.max_depenetration_speed)
+                        .max(-pull);
                     let target_vn = vs.dot(nrm) + push;
                     if before_substep == k as u32 | STICK {
                         // Static friction held it: it moves with the surface (all three
