@@ -46,9 +46,9 @@
 //! `A⁻¹` on smooth errors (block Jacobi) underestimates it there, as it does the relative test.
 //! `floor = 0` (the default) turns it off.
 //!
-//! Numerics: vectors are `f32` (`Vec3A`), dot products are accumulated in `f64` (products of
-//! two `f32` are exact in `f64`) in a fixed serial order, so a solve is bit-reproducible given
-//! a deterministic operator.
+//! Numerics: vectors are `f32` (`Vec3A`), dot products are accumulated in `f64` in a fixed
+//! order (four interleaved partial sums), so a solve is bit-reproducible given a deterministic
+//! operator.
 #![deny(
     clippy::indexing_slicing,
     clippy::unwrap_used,
@@ -208,6 +208,27 @@ fn dot64(a: Vec3A, b: Vec3A) -> f64 {
     f64::from(a.dot(b))
 }
 
+/// A sum of `f64` terms in four interleaved partial sums (term `k` goes to sum `k mod 4`),
+/// combined as `(s₀ + s₂) + (s₁ + s₃)`: a fixed order, so bit-reproducible, without one
+/// dependency chain of `f64` additions through the whole vector (3–4 cycles per term).
+#[derive(Clone, Copy)]
+struct Sum4(f64, f64, f64, f64);
+
+impl Sum4 {
+    const ZERO: Self = Self(0.0, 0.0, 0.0, 0.0);
+
+    /// Adds the next term. The rotation is register renaming, not work.
+    #[inline(always)]
+    fn add(&mut self, v: f64) {
+        *self = Self(self.1, self.2, self.3, self.0 + v);
+    }
+
+    #[inline(always)]
+    fn total(self) -> f64 {
+        (self.0 + self.2) + (self.1 + self.3)
+    }
+}
+
 #[inline]
 fn relative(delta: f64, reference: f64) -> f32 {
     if reference > 0.0 {
@@ -334,10 +355,11 @@ fn run<F: Filter>(
         *qi = f.at(i, bi);
     }
     precond.apply(q, s, c);
-    let mut delta0 = 0.0f64;
+    let mut delta0 = Sum4::ZERO;
     for (&qi, &si) in q.iter().zip(s.iter()) {
-        delta0 += dot64(qi, si);
+        delta0.add(dot64(qi, si));
     }
+    let delta0 = delta0.total();
 
     // r = S (b − A x): the warm start already carries the prescribed components, so this is
     // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`.
@@ -347,11 +369,12 @@ fn run<F: Filter>(
     }
     // c = S P r, δ = rᵀ c (= rᵀ P r since S r = r and S is a symmetric projection).
     precond.apply(r, s, q);
-    let mut delta = 0.0f64;
+    let mut delta = Sum4::ZERO;
     for (i, ((ci, &ri), &si)) in c.iter_mut().zip(r.iter()).zip(s.iter()).enumerate() {
         *ci = f.at(i, si);
-        delta += dot64(ri, *ci);
+        delta.add(dot64(ri, *ci));
     }
+    let mut delta = delta.total();
     if !delta0.is_finite() || !delta.is_finite() || delta < 0.0 {
         return Err(PcgError::Breakdown);
     }
@@ -365,13 +388,14 @@ fn run<F: Filter>(
     };
     let mut delta_min = delta;
     while !stats.converged && stats.iterations < settings.max_iterations {
-        // q = S A c, and cᵀ q = cᵀ A c (c = S c): the curvature along c.
+        // q = A c, and cᵀ q = cᵀ A c: the curvature along c. Since c = S c and S is a
+        // symmetric projection, cᵀ q = cᵀ S q: q is filtered only where it updates r, below.
         a.apply(c, q);
-        let mut cq = 0.0f64;
-        for (i, (qi, &ci)) in q.iter_mut().zip(c.iter()).enumerate() {
-            *qi = f.at(i, *qi);
-            cq += dot64(ci, *qi);
+        let mut cq = Sum4::ZERO;
+        for (&qi, &ci) in q.iter().zip(c.iter()) {
+            cq.add(dot64(ci, qi));
         }
+        let cq = cq.total();
         // Non-positive curvature: A is not SPD on the free subspace; CG cannot continue.
         // Checked before x moves, so x is still the last good iterate here.
         if !(cq > 0.0 && cq.is_finite()) {
@@ -389,19 +413,21 @@ fn run<F: Filter>(
             return Err(PcgError::Breakdown);
         }
 
-        // x += α c, r −= α q; then s = P r (q is dead until the next product: the
-        // preconditioner's scratch), δ_new = rᵀ s.
-        for ((xi, ri), (&ci, &qi)) in x.iter_mut().zip(r.iter_mut()).zip(c.iter().zip(q.iter())) {
-            *xi += alpha * ci;
-            *ri -= alpha * qi;
+        // r −= α S q; then s = P r (q is dead until the next product: the preconditioner's
+        // scratch), δ_new = rᵀ s. The matching x += α c is deferred to the pass that updates c
+        // (or to the exits below), which reads c anyway.
+        for (i, (ri, &qi)) in r.iter_mut().zip(q.iter()).enumerate() {
+            *ri -= alpha * f.at(i, qi);
         }
         precond.apply(r, s, q);
-        let mut delta_new = 0.0f64;
+        let mut delta_new = Sum4::ZERO;
         for (&ri, &si) in r.iter().zip(s.iter()) {
-            delta_new += dot64(ri, si);
+            delta_new.add(dot64(ri, si));
         }
+        let delta_new = delta_new.total();
         stats.iterations += 1;
         if !delta_new.is_finite() || delta_new < 0.0 {
+            axpy(x, alpha, c);
             return Err(PcgError::Breakdown);
         }
         // Divergence guard: at the f32 noise floor the recursively updated residual loses
@@ -409,6 +435,7 @@ fn run<F: Filter>(
         // 120 iterations on a contact step). Once it has grown 100× above its best, stop with
         // "not converged": the iterate is still within a few steps of the best one.
         if delta_new > 100.0 * delta_min {
+            axpy(x, alpha, c);
             stats.residual = relative(delta_new, reference);
             stats.converged = false;
             break;
@@ -417,18 +444,28 @@ fn run<F: Filter>(
         stats.residual = relative(delta_new, reference);
         stats.converged = delta_new <= threshold;
         if stats.converged {
+            axpy(x, alpha, c);
             break;
         }
 
         // c = S (s + β c). δ > threshold ≥ 0 here, so β is finite unless δ_new overflowed,
         // which the next cᵀ q check catches.
         let beta = (delta_new / delta) as f32;
-        for (i, (ci, &si)) in c.iter_mut().zip(s.iter()).enumerate() {
+        for (i, ((ci, xi), &si)) in c.iter_mut().zip(x.iter_mut()).zip(s.iter()).enumerate() {
+            *xi += alpha * *ci;
             *ci = f.at(i, si + beta * *ci);
         }
         delta = delta_new;
     }
     Ok(stats)
+}
+
+/// `x += α c`.
+#[inline]
+fn axpy(x: &mut [Vec3A], alpha: f32, c: &[Vec3A]) {
+    for (xi, &ci) in x.iter_mut().zip(c) {
+        *xi += alpha * ci;
+    }
 }
 
 /// Smallest accepted `det(M) / (M₀₀ M₁₁ M₂₂)` for a full block inverse. This is the

@@ -24,7 +24,7 @@
 )]
 
 use core::ops::Range;
-use glam::{Mat3A, Vec3A};
+use glam::{Mat3A, Vec3A, Vec3Swizzles};
 
 /// Errors of the sparse-matrix functions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -257,11 +257,14 @@ pub fn build_pattern(
     Ok(w)
 }
 
-/// `mᵀ v` without materializing more than a register transpose.
+/// `mᵀ v` as a transpose (three shuffles on SSE2) and a column combination, with the splats
+/// of `v` (`vx = v.xxx()` etc.) passed in: the caller hoists them out of its loop over a row.
+/// Cheaper than three horizontal dot products, which each need two shuffles and a final
+/// gather of three scalars.
 #[inline(always)]
-fn tmul(m: &Mat3A, v: Vec3A) -> Vec3A {
-    // (Mᵀ v)_k = column k · v
-    Vec3A::new(m.x_axis.dot(v), m.y_axis.dot(v), m.z_axis.dot(v))
+fn tmul(m: &Mat3A, vx: Vec3A, vy: Vec3A, vz: Vec3A) -> Vec3A {
+    let t = m.transpose();
+    t.x_axis * vx + t.y_axis * vy + t.z_axis * vz
 }
 
 /// Checks the lengths shared by [`mul`] and [`mul_scalar_add`] and returns `nnz`.
@@ -289,7 +292,8 @@ fn check_lengths(
 /// is written. A malformed pattern that indexes out of range gives
 /// [`SparseError::InvalidPattern`], with `y` partially written.
 ///
-/// Summation order is fixed (serial, row by row), so results are bit-reproducible.
+/// Summation order is fixed (serial, rows from last to first), so results are
+/// bit-reproducible.
 pub fn mul(
     diag: &[Mat3A],
     p: &Pattern,
@@ -302,12 +306,12 @@ pub fn mul(
         return Err(SparseError::LengthMismatch);
     };
 
-    // Pass 1: diagonal. Every y_j must be initialized before earlier rows scatter into it.
-    for ((yi, d), &xi) in y.iter_mut().zip(diag).zip(x) {
-        *yi = *d * xi;
-    }
-    // Pass 2: upper blocks. Row i gathers A_ij x_j into a register and scatters A_ijᵀ x_i.
-    for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
+    // One pass, rows from last to first: row i writes y_i = A_ii x_i + Σ_j A_ij x_j (gathered
+    // in a register) and scatters A_ijᵀ x_i into y_j, j > i, which its own row has already
+    // written. Going backwards is what lets the diagonal join the row pass: forwards, every
+    // y_j would need initializing before earlier rows scatter into it (a second pass over y).
+    let rows = p.row_start.windows(2).zip(x.iter().zip(diag));
+    for (i, (w, (&xi, d))) in rows.enumerate().rev() {
         let &[a, b] = w else {
             return Err(SparseError::InvalidPattern);
         };
@@ -315,17 +319,18 @@ pub fn mul(
         let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
             return Err(SparseError::InvalidPattern);
         };
-        let mut acc = Vec3A::ZERO;
+        let (vx, vy, vz) = (xi.xxx(), xi.yyy(), xi.zzz());
+        let mut acc = *d * xi;
         for (&j, m) in rc.iter().zip(ro) {
             let j = j as usize;
             let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
                 return Err(SparseError::InvalidPattern);
             };
             acc += *m * xj;
-            *yj += tmul(m, xi);
+            *yj += tmul(m, vx, vy, vz);
         }
         if let Some(yi) = y.get_mut(i) {
-            *yi += acc;
+            *yi = acc;
         }
     }
     Ok(())
