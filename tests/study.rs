@@ -72,7 +72,7 @@ fn tiny_study_homogenized_beats_averaged_across_the_stripes() {
                     && r["cell"] == "stripes"
                     && r["material"] == material
                     && r["coarse_res"] == "1"
-                    && r["cg_tol"] == "1e-4"
+                    && r["cg_tol"] == "1e-3"
                     && r["substeps"] == "1"
                     && r["warping"] == "on"
                     && r["localization"] == localization

@@ -31,7 +31,7 @@ use clap::Parser;
 use glam::Vec3A;
 use weft::blob::{AlignedBytes, Blob};
 use weft::cell::CellDesc;
-use weft::world::{Material, Materials, Settings, World};
+use weft::world::{Material, Materials, Settings, Solver, World};
 
 use reference::Sheet;
 use scenes::{Dir, Scene};
@@ -196,16 +196,20 @@ pub struct Knobs {
     pub max_iter: u32,
     pub substeps: u32,
     pub warping: bool,
+    /// The CG preconditioner.
+    pub solver: Solver,
 }
 
 impl Knobs {
+    /// The runtime's defaults.
     pub const BASE: Knobs = Knobs {
         averaged: false,
         res: 1,
-        tol: 1e-4,
+        tol: 1e-3,
         max_iter: 200,
         substeps: 1,
         warping: true,
+        solver: Solver::Multigrid,
     };
     fn settings(&self, scene: &Scene) -> Settings {
         let base = Settings {
@@ -215,6 +219,14 @@ impl Knobs {
             ..Settings::default()
         };
         scene.settings(base, self.warping)
+    }
+}
+
+/// The CSV name of a solver.
+pub fn solver_name(solver: Solver) -> &'static str {
+    match solver {
+        Solver::Multigrid => "multigrid",
+        Solver::BlockJacobi => "block-jacobi",
     }
 }
 
@@ -278,6 +290,8 @@ pub struct Row {
     pub cg_max_iter: u32,
     pub substeps: u32,
     pub warping: bool,
+    /// `multigrid` or `block-jacobi`.
+    pub solver: &'static str,
     /// `Some(mode)` for coarse rows.
     pub mode: Option<Mode>,
     pub ms_per_step: f64,
@@ -315,19 +329,24 @@ fn simulate(
     materials: Materials<'_>,
     scene: &Scene,
     settings: Settings,
+    solver: Solver,
     steps: usize,
     hook: &mut dyn FnMut(&World<'_>, usize) -> Result<(), String>,
 ) -> Result<SimOut, String> {
-    simulate_with(sheet, materials, scene, settings, steps, false, hook)
+    simulate_with(
+        sheet, materials, scene, settings, solver, steps, false, hook,
+    )
 }
 
 /// [`simulate`]; `lenient`: a step the world refuses (it keeps its state) is counted in
 /// `SimOut::refused` and timed like the others instead of ending the run (for timing only).
+#[allow(clippy::too_many_arguments)]
 fn simulate_with(
     sheet: &Sheet,
     materials: Materials<'_>,
     scene: &Scene,
     settings: Settings,
+    solver: Solver,
     steps: usize,
     lenient: bool,
     hook: &mut dyn FnMut(&World<'_>, usize) -> Result<(), String>,
@@ -337,6 +356,7 @@ fn simulate_with(
     let mut memory = vec![0u8; cap.world_bytes()];
     let mut world = World::new(&mut memory, cap, &sheet.def(), materials, settings)
         .map_err(|e| format!("init: {e:?}"))?;
+    world.set_solver(solver);
     let (w, h) = (sheet.width as f32, sheet.height as f32);
     for c in scene.colliders(w) {
         world
@@ -607,18 +627,25 @@ fn knob_list(preset: &Preset, case: &Case) -> Vec<Knobs> {
         }
     }
     if case.sweep {
-        for (tol, max_iter) in [
-            (1e-2, 200),
-            (1e-3, 200),
-            (1e-5, 1000),
-            (1e-4, 10),
-            (1e-4, 40),
-        ] {
-            out.push(Knobs {
-                tol,
-                max_iter,
-                ..Knobs::BASE
-            });
+        for solver in [Solver::Multigrid, Solver::BlockJacobi] {
+            for (tol, max_iter) in [
+                (1e-2, 200),
+                (1e-3, 200),
+                (1e-4, 200),
+                (1e-5, 1000),
+                (1e-3, 10),
+                (1e-3, 40),
+            ] {
+                let knobs = Knobs {
+                    tol,
+                    max_iter,
+                    solver,
+                    ..Knobs::BASE
+                };
+                if knobs != Knobs::BASE {
+                    out.push(knobs);
+                }
+            }
         }
         for substeps in [2, 4] {
             out.push(Knobs {
@@ -657,6 +684,7 @@ fn run_case(
         cg_max_iter: knobs.max_iter,
         substeps: knobs.substeps,
         warping: knobs.warping,
+        solver: solver_name(knobs.solver),
         mode: None,
         ms_per_step: f64::NAN,
         localize_ms: None,
@@ -686,6 +714,7 @@ fn run_case(
         Materials::Table(&table),
         scene,
         reference_knobs.settings(scene),
+        reference_knobs.solver,
         steps,
         &mut |_, _| Ok(()),
     ) {
@@ -725,6 +754,7 @@ fn run_case(
             Materials::Table(&table),
             scene,
             Knobs::BASE.settings(scene),
+            Knobs::BASE.solver,
             steps,
             &mut |_, _| Ok(()),
         );
@@ -784,6 +814,7 @@ fn run_case(
             materials,
             scene,
             knobs.settings(scene),
+            knobs.solver,
             steps,
             &mut |world, _| {
                 if upsampler.is_none() {
@@ -923,6 +954,7 @@ pub struct BenchRun {
     pub tol: f32,
     pub max_iter: u32,
     pub substeps: u32,
+    pub solver: Solver,
     /// CG iterations per accepted step.
     pub iters: f64,
     pub refused: usize,
@@ -937,6 +969,7 @@ impl BenchRun {
             tol: knobs.tol,
             max_iter: knobs.max_iter,
             substeps: knobs.substeps,
+            solver: knobs.solver,
             iters: o.iterations as f64 / accepted as f64,
             refused: o.refused,
             first_refusal: o.first_refusal.clone(),
@@ -986,6 +1019,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
             Materials::Blob(&blob),
             &scene,
             Knobs::BASE.settings(&scene),
+            Knobs::BASE.solver,
             b.coarse_steps,
             &mut |world, _| {
                 if up.is_none() {
@@ -1008,6 +1042,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
             Materials::Table(&table),
             &scene,
             knobs.settings(&scene),
+            knobs.solver,
             steps,
             true,
             &mut |_, _| Ok(()),
@@ -1054,6 +1089,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
         cg_max_iter: run.max_iter,
         substeps: run.substeps,
         warping: true,
+        solver: solver_name(run.solver),
         mode: None,
         ms_per_step: median(&run.ms),
         localize_ms: None,

@@ -13,7 +13,7 @@ use crate::scenes::Kind;
 use crate::upsample::Mode;
 use crate::{median, BenchOut, Knobs, Picture, Row, CELLS, REFERENCE_MAX_ITER};
 
-pub const CSV_COLUMNS: [&str; 24] = [
+pub const CSV_COLUMNS: [&str; 25] = [
     "scene",
     "cell",
     "material",
@@ -23,6 +23,7 @@ pub const CSV_COLUMNS: [&str; 24] = [
     "cg_max_iter",
     "substeps",
     "warping",
+    "solver",
     "localization",
     "normals",
     "ms_per_step",
@@ -78,6 +79,7 @@ impl Row {
             self.cg_max_iter.to_string(),
             self.substeps.to_string(),
             if self.warping { "on" } else { "off" }.into(),
+            self.solver.into(),
             self.localization().into(),
             self.normals().into(),
             ms(self.ms_per_step),
@@ -115,6 +117,7 @@ impl Row {
             && self.cg_max_iter == knobs.max_iter
             && self.substeps == knobs.substeps
             && self.warping == knobs.warping
+            && self.solver == crate::solver_name(knobs.solver)
             && self.status == "ok"
     }
     fn knobs(&self) -> String {
@@ -122,7 +125,10 @@ impl Row {
         if let Some(r) = self.coarse_res {
             parts.push(format!("{r}x{r} cells/quad"));
         }
-        parts.push(format!("tol {:e}/{}", self.cg_tol, self.cg_max_iter));
+        parts.push(format!(
+            "{} tol {:e}/{}",
+            self.solver, self.cg_tol, self.cg_max_iter
+        ));
         parts.push(format!("{} substep", self.substeps));
         if !self.warping {
             parts.push("no warping".into());
