@@ -935,6 +935,15 @@ typedef struct WeftStepStats {
      * Vertices in contact with a collider at the end of the step.
      */
     uint32_t contacts;
+    /**
+     * Times the step was redone with twice the substeps because its end state held energy
+     * that nothing supplied (0, 1 or 2; `substeps` is the count finally used).
+     */
+    uint32_t redone;
+    /**
+     * Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
+     */
+    float energy_removed;
 } WeftStepStats;
 
 /**

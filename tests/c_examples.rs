@@ -533,7 +533,9 @@ fn c_layout_matches_rust() {
         converged,
         substeps,
         asleep,
-        contacts
+        contacts,
+        redone,
+        energy_removed
     });
     layout!(WeftErrorDetail {
         result,

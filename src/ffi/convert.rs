@@ -244,6 +244,8 @@ pub(super) fn stats_to_c(s: &StepStats) -> WeftStepStats {
         substeps: s.substeps,
         asleep: s.asleep,
         contacts: s.contacts,
+        redone: s.redone,
+        energy_removed: s.energy_removed,
     }
 }
 

@@ -223,6 +223,11 @@ pub struct WeftStepStats {
     pub asleep: bool,
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
+    /// Times the step was redone with twice the substeps because its end state held energy
+    /// that nothing supplied (0, 1 or 2; `substeps` is the count finally used).
+    pub redone: u32,
+    /// Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
+    pub energy_removed: f32,
 }
 
 /// Where `weft_localize` writes a range of the fine render mesh. Get one from
