@@ -14,13 +14,6 @@
 //! Arrays are reinterpreted with `bytemuck` (which checks size and alignment), so the in-place
 //! view is only correct on a little-endian target; big-endian targets are refused at compile time
 //! rather than silently misreading every number.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 #[cfg(target_endian = "big")]
 compile_error!(

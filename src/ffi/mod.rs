@@ -25,13 +25,6 @@
 //!
 //! Comments starting with `///` become the header's documentation: they are written for a C
 //! programmer who never reads the Rust.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::mem::{align_of, size_of};
 

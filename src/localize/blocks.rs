@@ -17,13 +17,6 @@
 //!   [`FramesHeader::check`] says whether one may be used with a world.
 //!
 //! Sizes are [`block_bytes`]: a header plus `n` records, refused beyond `isize::MAX` bytes.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::fmt;
 use core::mem::{align_of, size_of};
