@@ -130,10 +130,10 @@ pub fn hinge_hessian(uv: [[f64; 2]; 4], stiffness: f64) -> Option<[[f64; 4]; 4]>
     // symmetric, whatever the caller then does with the upper or lower triangle.
     let ck = k.map(|v| c * v);
     let mut h = [[0.0; 4]; 4];
-    for (a, ha) in h.iter_mut().enumerate() {
-        for (b, hab) in ha.iter_mut().enumerate() {
-            let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
-            *hab = ck[lo] * k[hi];
+    for (a, (ha, (&cka, &ka))) in h.iter_mut().zip(ck.iter().zip(&k)).enumerate() {
+        for (b, (hab, (&ckb, &kb))) in ha.iter_mut().zip(ck.iter().zip(&k)).enumerate() {
+            // ck[lo] * k[hi]
+            *hab = if a <= b { cka * kb } else { ckb * ka };
         }
     }
     Some(h)
@@ -200,11 +200,10 @@ pub fn add_forces(
     if p.n() != n || force.len() != n || off.len() < p.nnz() {
         return Err(crate::sparse::SparseError::LengthMismatch);
     }
-    for i in 0..n {
+    for (i, &xi) in x.iter().enumerate() {
         let range = p
             .row_range(i)
             .ok_or(crate::sparse::SparseError::InvalidPattern)?;
-        let xi = x[i];
         for k in range {
             let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) else {
                 return Err(crate::sparse::SparseError::InvalidPattern);
@@ -214,8 +213,15 @@ pub fn add_forces(
                 .get(j)
                 .ok_or(crate::sparse::SparseError::IndexOutOfRange)?
                 - xi;
-            force[i] -= q * d;
-            force[j] += q * d;
+            // `force.len() == n` was checked above
+            let fi = force
+                .get_mut(i)
+                .ok_or(crate::sparse::SparseError::LengthMismatch)?;
+            *fi -= q * d;
+            let fj = force
+                .get_mut(j)
+                .ok_or(crate::sparse::SparseError::IndexOutOfRange)?;
+            *fj += q * d;
         }
     }
     Ok(())

@@ -460,15 +460,9 @@ fn material(file: &str, key: &str, m: &RawMaterial) -> Result<Material, CellErro
             }
             // is_spd accepts a relative 1e-9 asymmetry (decimal round-off in the file);
             // store the symmetric part so C is exactly symmetric downstream.
-            let mut c = t;
-            for i in 0..3 {
-                for j in 0..i {
-                    let s = 0.5 * (t[i][j] + t[j][i]);
-                    c[i][j] = s;
-                    c[j][i] = s;
-                }
-            }
-            c
+            let [[t00, t01, t02], [t10, t11, t12], [t20, t21, t22]] = t;
+            let (s10, s20, s21) = (0.5 * (t10 + t01), 0.5 * (t20 + t02), 0.5 * (t21 + t12));
+            [[t00, s10, s20], [s10, t11, s21], [s20, s21, t22]]
         }
     };
     if !(m.density.is_finite() && m.density > 0.0) {
@@ -624,10 +618,11 @@ fn image_pattern(
             let px = line
                 .get(col * channels..(col + 1) * channels)
                 .ok_or_else(|| image_err("truncated image data".to_string()))?;
-            let (r, g, b) = if channels >= 3 {
-                (px[0], px[1], px[2])
-            } else {
-                (px[0], px[0], px[0])
+            // (`px` has `channels` bytes: RGB(A), or grey (and alpha))
+            let (r, g, b) = match *px {
+                [r, g, b, ..] => (r, g, b),
+                [l, ..] => (l, l, l),
+                [] => return Err(image_err("image without channels".to_string())),
             };
             let color = (u32::from(r) << 16) | (u32::from(g) << 8) | u32::from(b);
             match by_color.get(&color) {
@@ -783,15 +778,9 @@ pub fn mesh_sheet(desc: &CellDesc, refine: usize, tiles_u: usize, tiles_v: usize
 /// inverse), so `C' = Tᵀ C T = T C T`: `C'11 = C22`, `C'22 = C11`, `C'33 = C33`,
 /// `C'12 = C12`, `C'13 = -C23`, `C'23 = -C13`.
 pub fn rotate_tensor90(c: &Voigt) -> Voigt {
-    let p = [1usize, 0, 2];
-    let sign = [1.0, 1.0, -1.0];
-    let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            r[i][j] = sign[i] * sign[j] * c[p[i]][p[j]];
-        }
-    }
-    r
+    // r[i][j] = sign[i] sign[j] c[p[i]][p[j]] with p = [1, 0, 2], sign = [1, 1, -1]
+    let [[c00, c01, c02], [c10, c11, c12], [c20, c21, c22]] = *c;
+    [[c11, c10, -c12], [c01, c00, -c02], [-c21, -c20, c22]]
 }
 
 /// The cell rotated by 90° counter-clockwise: pattern and material tensors. The new cell is the
@@ -802,7 +791,10 @@ pub fn rotate90(desc: &CellDesc) -> CellDesc {
     let mut pixels = vec![0u32; rows * cols];
     for r in 0..desc.rows {
         for c in 0..desc.cols {
-            pixels[(desc.cols - 1 - c) * cols + r] = desc.pixel(r, c);
+            // (always < rows × cols)
+            if let Some(p) = pixels.get_mut((desc.cols - 1 - c) * cols + r) {
+                *p = desc.pixel(r, c);
+            }
         }
     }
     let materials = desc

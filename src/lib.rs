@@ -15,6 +15,18 @@
 //! material space `(u, v)` in metres.
 #![cfg_attr(not(any(feature = "std", test)), no_std)]
 #![forbid(unsafe_op_in_unsafe_fn)]
+// One lint policy for the whole library, runtime and std side alike: nothing indexes,
+// unwraps or panics. `#[cfg(test)]` modules opt out with their own `#[allow]`.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::indexing_slicing,
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::unreachable
+    )
+)]
 
 // The shipped static library is no_std with panic = "abort": the kernel is panic-free by
 // construction, and should a panic ever happen it stops here instead of unwinding into C.

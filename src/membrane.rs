@@ -38,12 +38,9 @@ pub fn gradients(uv: [[f64; 2]; 3]) -> Option<Gradients> {
         return None;
     }
     // dN_a/du = (v_b - v_c) / 2A, dN_a/dv = (u_c - u_b) / 2A with (a, b, c) cyclic.
-    let mut grad = [[0.0; 2]; 3];
-    for a in 0..3 {
-        let b = uv[(a + 1) % 3];
-        let c = uv[(a + 2) % 3];
-        grad[a] = [(b[1] - c[1]) / a2, (c[0] - b[0]) / a2];
-    }
+    let [p0, p1, p2] = uv;
+    let grad =
+        [[p1, p2], [p2, p0], [p0, p1]].map(|[b, c]| [(b[1] - c[1]) / a2, (c[0] - b[0]) / a2]);
     Some(Gradients {
         grad,
         area: 0.5 * a2.abs(),
@@ -59,10 +56,10 @@ pub fn b_block(g: [f64; 2]) -> [[f64; 2]; 3] {
 /// Constant strain of the triangle under nodal in-plane displacements `d` (Eq. 3).
 pub fn strain(g: &Gradients, d: [[f64; 2]; 3]) -> [f64; 3] {
     let mut e = [0.0; 3];
-    for a in 0..3 {
-        let b = b_block(g.grad[a]);
-        for (i, ei) in e.iter_mut().enumerate() {
-            *ei += b[i][0] * d[a][0] + b[i][1] * d[a][1];
+    for (&ga, da) in g.grad.iter().zip(&d) {
+        let b = b_block(ga);
+        for (ei, bi) in e.iter_mut().zip(&b) {
+            *ei += bi[0] * da[0] + bi[1] * da[1];
         }
     }
     e
@@ -72,8 +69,8 @@ pub fn strain(g: &Gradients, d: [[f64; 2]; 3]) -> [f64; 3] {
 #[inline]
 pub fn stress(c: &Voigt, e: [f64; 3]) -> [f64; 3] {
     let mut s = [0.0; 3];
-    for (i, si) in s.iter_mut().enumerate() {
-        *si = c[i][0] * e[0] + c[i][1] * e[1] + c[i][2] * e[2];
+    for (si, ci) in s.iter_mut().zip(c) {
+        *si = ci[0] * e[0] + ci[1] * e[1] + ci[2] * e[2];
     }
     s
 }
@@ -82,21 +79,16 @@ pub fn stress(c: &Voigt, e: [f64; 3]) -> [f64; 3] {
 /// The elastic force on node `a` is `-Σ_b k[a][b] d_b`.
 pub fn element_stiffness(g: &Gradients, c: &Voigt) -> [[[[f64; 2]; 2]; 3]; 3] {
     let mut k = [[[[0.0; 2]; 2]; 3]; 3];
-    for a in 0..3 {
-        let ba = b_block(g.grad[a]);
-        for b in 0..3 {
-            let bb = b_block(g.grad[b]);
-            // C B_b (3×2)
-            let mut cb = [[0.0; 2]; 3];
-            for i in 0..3 {
-                for j in 0..2 {
-                    cb[i][j] = c[i][0] * bb[0][j] + c[i][1] * bb[1][j] + c[i][2] * bb[2][j];
-                }
-            }
-            for r in 0..2 {
-                for s in 0..2 {
-                    k[a][b][r][s] =
-                        g.area * (ba[0][r] * cb[0][s] + ba[1][r] * cb[1][s] + ba[2][r] * cb[2][s]);
+    for (ka, &ga) in k.iter_mut().zip(&g.grad) {
+        // columns r of B_a
+        let ba = columns(b_block(ga));
+        for (kab, &gb) in ka.iter_mut().zip(&g.grad) {
+            // C B_b (3×2), column by column: cb[s][i] = Σ_j c[i][j] B_b[j][s]
+            let cb = columns(b_block(gb))
+                .map(|bs| c.map(|ci| ci[0] * bs[0] + ci[1] * bs[1] + ci[2] * bs[2]));
+            for (krow, bar) in kab.iter_mut().zip(&ba) {
+                for (krs, cbs) in krow.iter_mut().zip(&cb) {
+                    *krs = g.area * (bar[0] * cbs[0] + bar[1] * cbs[1] + bar[2] * cbs[2]);
                 }
             }
         }
@@ -109,13 +101,17 @@ pub fn element_stiffness(g: &Gradients, c: &Voigt) -> [[[[f64; 2]; 2]; 3]; 3] {
 /// strained element (with the opposite sign).
 pub fn stress_forces(g: &Gradients, s: [f64; 3]) -> [[f64; 2]; 3] {
     let mut f = [[0.0; 2]; 3];
-    for (a, fa) in f.iter_mut().enumerate() {
-        let b = b_block(g.grad[a]);
-        for r in 0..2 {
-            fa[r] = g.area * (b[0][r] * s[0] + b[1][r] * s[1] + b[2][r] * s[2]);
+    for (fa, &ga) in f.iter_mut().zip(&g.grad) {
+        for (far, br) in fa.iter_mut().zip(&columns(b_block(ga))) {
+            *far = g.area * (br[0] * s[0] + br[1] * s[1] + br[2] * s[2]);
         }
     }
     f
+}
+
+/// The two columns of a 3×2 matrix.
+fn columns(m: [[f64; 2]; 3]) -> [[f64; 3]; 2] {
+    [[m[0][0], m[1][0], m[2][0]], [m[0][1], m[1][1], m[2][1]]]
 }
 
 #[cfg(test)]
@@ -260,17 +256,23 @@ impl Element {
     /// The element of the triangle with rest corners `uv` (m) and stiffness `c` (N/m).
     pub fn new(uv: [[f64; 2]; 3], c: &Voigt) -> Option<Element> {
         let g = gradients(uv)?;
-        let mut grad = [0.0f32; 6];
-        for a in 0..3 {
-            grad[2 * a] = g.grad[a][0] as f32;
-            grad[2 * a + 1] = g.grad[a][1] as f32;
-        }
+        let [g0, g1, g2] = g.grad;
+        let grad = [g0[0], g0[1], g1[0], g1[1], g2[0], g2[1]].map(|v| v as f32);
         let c = [c[0][0], c[1][1], c[2][2], c[0][1], c[0][2], c[1][2]].map(|v| v as f32);
         Some(Element {
             grad,
             c,
             area: g.area as f32,
         })
+    }
+
+    /// `∇N_a = (dN_a/du, dN_a/dv)` of corner `a` (0, 1 or 2; zero for any other `a`).
+    #[inline]
+    fn corner_gradient(&self, a: usize) -> (f32, f32) {
+        (
+            self.grad.get(2 * a).copied().unwrap_or(0.0),
+            self.grad.get(2 * a + 1).copied().unwrap_or(0.0),
+        )
     }
 
     /// `σ = C e` (N/m) for a strain `e = [e11, e22, 2 e12]`.
@@ -287,10 +289,9 @@ impl Element {
     /// The strain `e = Σ_a B_a d_a` of in-plane corner displacements `d` (Eq. 3, 11).
     #[inline]
     pub fn strain(&self, d: &[[f32; 2]; 3]) -> [f32; 3] {
-        let g = &self.grad;
         let mut e = [0.0f32; 3];
         for (a, da) in d.iter().enumerate() {
-            let (gu, gv) = (g[2 * a], g[2 * a + 1]);
+            let (gu, gv) = self.corner_gradient(a);
             e[0] += gu * da[0];
             e[1] += gv * da[1];
             e[2] += gv * da[0] + gu * da[1];
@@ -302,7 +303,7 @@ impl Element {
     /// sign).
     #[inline]
     pub fn corner_force(&self, a: usize, s: [f32; 3]) -> [f32; 2] {
-        let (gu, gv) = (self.grad[2 * a], self.grad[2 * a + 1]);
+        let (gu, gv) = self.corner_gradient(a);
         [
             self.area * (gu * s[0] + gv * s[2]),
             self.area * (gv * s[1] + gu * s[2]),
@@ -313,8 +314,8 @@ impl Element {
     #[inline]
     pub fn block(&self, a: usize, b: usize) -> [[f32; 2]; 2] {
         let [c11, c22, c33, c12, c13, c23] = self.c;
-        let (ua, va) = (self.grad[2 * a], self.grad[2 * a + 1]);
-        let (ub, vb) = (self.grad[2 * b], self.grad[2 * b + 1]);
+        let (ua, va) = self.corner_gradient(a);
+        let (ub, vb) = self.corner_gradient(b);
         // C B_b, columns for the u and v displacement of b
         let cu = [
             c11 * ub + c13 * vb,
@@ -459,7 +460,7 @@ pub fn assemble(
                 r[0] * c13 + r[1] * c23 + r[2] * c33,
             ]
         };
-        let t: [[Vec3A; 3]; 3] = core::array::from_fn(|b| c_rows(&rows[b]));
+        let t: [[Vec3A; 3]; 3] = rows.map(|r| c_rows(&r));
         for (r, &i) in rows.iter().zip(tri) {
             let f = force
                 .get_mut(i as usize)
@@ -483,20 +484,25 @@ pub fn assemble(
             );
             el.area * (ua * (sp[0] * ub + sp[2] * vb) + va * (sp[2] * ub + sp[1] * vb))
         };
-        let block = |a: usize, b: usize| {
-            let (ra, tb) = (&rows[a], &t[b]);
+        // corner a's strain rows `ra`, corner b's `C (∂e/∂x_b)` rows `tb`
+        let block = |a: usize, ra: &[Vec3A; 3], b: usize, tb: &[Vec3A; 3]| {
             let m = outer(ra[0], tb[0]) + outer(ra[1], tb[1]) + outer(ra[2], tb[2]);
             m * el.area + Mat3A::from_diagonal(glam::Vec3::splat(geo(a, b)))
         };
-        for (a, &i) in tri.iter().enumerate() {
+        for (a, ((&i, ra), ta)) in tri.iter().zip(&rows).zip(&t).enumerate() {
             let d = diag
                 .get_mut(i as usize)
                 .ok_or(AssemblyError::LengthMismatch)?;
-            *d += block(a, a);
+            *d += block(a, ra, a, ta);
         }
-        for (p, (a, b)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+        let pairs = [
+            (0, &rows[0], 1, &t[1]),
+            (0, &rows[0], 2, &t[2]),
+            (1, &rows[1], 2, &t[2]),
+        ];
+        for (p, (a, ra, b, tb)) in pairs.into_iter().enumerate() {
             let s = slot.get(p).copied().unwrap_or(0);
-            let m = block(a, b);
+            let m = block(a, ra, b, tb);
             let target = off
                 .get_mut((s & !TRANSPOSED) as usize)
                 .ok_or(AssemblyError::MissingBlock)?;

@@ -199,8 +199,13 @@ pub fn build(
     {
         return Err(MeshError::BufferTooSmall);
     }
+    // (every slice below was checked long enough above: `BufferTooSmall` cannot happen)
+    let (Some(vt_start), Some(fill)) =
+        (topo.vt_start.get_mut(..n + 1), topo.scratch_a.get_mut(..n))
+    else {
+        return Err(MeshError::BufferTooSmall);
+    };
     // Vertex → triangle incidence by counting sort (deterministic: triangles in index order).
-    let vt_start = &mut topo.vt_start[..n + 1];
     vt_start.fill(0);
     for tri in triangles {
         for &v in tri {
@@ -210,50 +215,74 @@ pub fn build(
             *slot += 1;
         }
     }
-    for v in 0..n {
-        vt_start[v + 1] += vt_start[v];
-    }
-    if let Some(v) = (0..n).find(|&v| vt_start[v] == vt_start[v + 1]) {
+    running_sum(vt_start);
+    if let Some(v) = vt_start
+        .windows(2)
+        .position(|w| matches!(w, [s, e] if s == e))
+    {
         return Err(MeshError::UnusedVertex { vertex: v as u32 });
     }
-    let fill = &mut topo.scratch_a[..n];
-    fill.copy_from_slice(&vt_start[..n]);
+    fill.copy_from_slice(vt_start.get(..n).ok_or(MeshError::BufferTooSmall)?);
     for (t, tri) in triangles.iter().enumerate() {
         for &v in tri {
-            let at = &mut fill[v as usize];
-            topo.vt[*at as usize] = t as u32;
+            // (every vertex is < n: counted above)
+            let at = fill.get_mut(v as usize).ok_or(MeshError::BufferTooSmall)?;
+            let incident = topo
+                .vt
+                .get_mut(*at as usize)
+                .ok_or(MeshError::BufferTooSmall)?;
+            *incident = t as u32;
             *at += 1;
         }
     }
 
     // Unique edges: for each vertex a, visit its triangles and their corners b > a. `stamp[b]`
     // remembers the last `a` that saw b, `slot[b]` the edge index, so no hashing is needed.
-    let (stamp, slot) = (&mut topo.scratch_a[..n], &mut topo.scratch_b[..n]);
+    let (Some(stamp), Some(slot)) = (topo.scratch_a.get_mut(..n), topo.scratch_b.get_mut(..n))
+    else {
+        return Err(MeshError::BufferTooSmall);
+    };
     stamp.fill(NONE);
+    let edge_capacity = topo.edges.len().min(topo.edge_tris.len()) as u32;
     let mut ne = 0usize;
     let mut nh = 0usize;
-    for a in 0..n {
-        let (s, e) = (vt_start[a] as usize, vt_start[a + 1] as usize);
-        for &t in &topo.vt[s..e] {
-            let tri = triangles[t as usize];
+    for (a, range) in vt_start.windows(2).enumerate() {
+        let &[s, e] = range else {
+            return Err(MeshError::BufferTooSmall);
+        };
+        let incident = topo
+            .vt
+            .get(s as usize..e as usize)
+            .ok_or(MeshError::BufferTooSmall)?;
+        for &t in incident {
+            let tri = *triangles.get(t as usize).ok_or(MeshError::BufferTooSmall)?;
             for &b in &tri {
                 if b as usize <= a {
                     continue;
                 }
                 let b_us = b as usize;
-                if stamp[b_us] != a as u32 {
-                    if ne >= topo.edges.len() || ne >= topo.edge_tris.len() {
+                let (Some(stamp_b), Some(slot_b)) = (stamp.get_mut(b_us), slot.get_mut(b_us))
+                else {
+                    return Err(MeshError::BufferTooSmall);
+                };
+                if *stamp_b != a as u32 {
+                    let (Some(edge), Some(edge_tris)) =
+                        (topo.edges.get_mut(ne), topo.edge_tris.get_mut(ne))
+                    else {
                         return Err(MeshError::EdgeCapacity {
-                            capacity: topo.edges.len().min(topo.edge_tris.len()) as u32,
+                            capacity: edge_capacity,
                         });
-                    }
-                    stamp[b_us] = a as u32;
-                    slot[b_us] = ne as u32;
-                    topo.edges[ne] = [a as u32, b];
-                    topo.edge_tris[ne] = [t, NONE];
+                    };
+                    *stamp_b = a as u32;
+                    *slot_b = ne as u32;
+                    *edge = [a as u32, b];
+                    *edge_tris = [t, NONE];
                     ne += 1;
                 } else {
-                    let et = &mut topo.edge_tris[slot[b_us] as usize];
+                    let et = topo
+                        .edge_tris
+                        .get_mut(*slot_b as usize)
+                        .ok_or(MeshError::BufferTooSmall)?;
                     if et[1] != NONE {
                         return Err(MeshError::NonManifoldEdge { a: a as u32, b });
                     }
@@ -262,52 +291,74 @@ pub fn build(
             }
         }
     }
+    let (Some(edges), Some(edge_tris)) = (topo.edges.get(..ne), topo.edge_tris.get(..ne)) else {
+        return Err(MeshError::BufferTooSmall);
+    };
 
     // Hinges on interior edges, and a consistency check: two triangles sharing an edge
     // traverse it in opposite directions iff they have the same (u,v) orientation.
-    for e in 0..ne {
-        let [a, b] = topo.edges[e];
-        let [t0, t1] = topo.edge_tris[e];
+    let hinge_capacity = topo.hinges.len() as u32;
+    for (&[a, b], &[t0, t1]) in edges.iter().zip(edge_tris) {
         if t1 == NONE {
             continue;
         }
-        let (tri0, tri1) = (triangles[t0 as usize], triangles[t1 as usize]);
+        let (t0, t1) = (t0 as usize, t1 as usize);
+        let (Some(&tri0), Some(&tri1), Some(sign0), Some(sign1)) = (
+            triangles.get(t0),
+            triangles.get(t1),
+            tri_sign.get(t0),
+            tri_sign.get(t1),
+        ) else {
+            return Err(MeshError::BufferTooSmall);
+        };
         let same_dir = directed(tri0, a, b) == directed(tri1, a, b);
-        let same_sign = tri_sign[t0 as usize] == tri_sign[t1 as usize];
+        let same_sign = sign0 == sign1;
         if same_dir == same_sign {
             return Err(MeshError::FoldedUv { a, b });
         }
-        if nh >= topo.hinges.len() {
-            return Err(MeshError::EdgeCapacity {
-                capacity: topo.hinges.len() as u32,
-            });
-        }
-        topo.hinges[nh] = [a, b, opposite(tri0, a, b), opposite(tri1, a, b)];
+        let hinge = topo.hinges.get_mut(nh).ok_or(MeshError::EdgeCapacity {
+            capacity: hinge_capacity,
+        })?;
+        *hinge = [a, b, opposite(tri0, a, b), opposite(tri1, a, b)];
         nh += 1;
     }
 
     // One-rings from the edge list.
-    let ring_start = &mut topo.ring_start[..n + 1];
+    let ring_start = topo
+        .ring_start
+        .get_mut(..n + 1)
+        .ok_or(MeshError::BufferTooSmall)?;
     ring_start.fill(0);
-    for &[a, b] in &topo.edges[..ne] {
-        ring_start[a as usize + 1] += 1;
-        ring_start[b as usize + 1] += 1;
+    for &[a, b] in edges {
+        for v in [a, b] {
+            // (edge ends are vertices, < n)
+            let count = ring_start
+                .get_mut(v as usize + 1)
+                .ok_or(MeshError::BufferTooSmall)?;
+            *count += 1;
+        }
     }
-    for v in 0..n {
-        ring_start[v + 1] += ring_start[v];
-    }
+    running_sum(ring_start);
     if topo.ring.len() < 2 * ne {
         return Err(MeshError::EdgeCapacity {
             capacity: (topo.ring.len() / 2) as u32,
         });
     }
-    let fill = &mut topo.scratch_a[..n];
-    fill.copy_from_slice(&ring_start[..n]);
-    for &[a, b] in &topo.edges[..ne] {
-        topo.ring[fill[a as usize] as usize] = b;
-        fill[a as usize] += 1;
-        topo.ring[fill[b as usize] as usize] = a;
-        fill[b as usize] += 1;
+    let fill = topo
+        .scratch_a
+        .get_mut(..n)
+        .ok_or(MeshError::BufferTooSmall)?;
+    fill.copy_from_slice(ring_start.get(..n).ok_or(MeshError::BufferTooSmall)?);
+    for &[a, b] in edges {
+        for (v, other) in [(a, b), (b, a)] {
+            let at = fill.get_mut(v as usize).ok_or(MeshError::BufferTooSmall)?;
+            let entry = topo
+                .ring
+                .get_mut(*at as usize)
+                .ok_or(MeshError::BufferTooSmall)?;
+            *entry = other;
+            *at += 1;
+        }
     }
     Ok(Counts {
         edges: ne,
@@ -315,9 +366,19 @@ pub fn build(
     })
 }
 
+/// `s[v + 1] += s[v]` for every `v`, in order: counts become start offsets.
+fn running_sum(s: &mut [u32]) {
+    let mut sum = 0;
+    for x in s.iter_mut() {
+        *x += sum;
+        sum = *x;
+    }
+}
+
 /// True when the triangle traverses a→b (rather than b→a).
 fn directed(tri: [u32; 3], a: u32, b: u32) -> bool {
-    (0..3).any(|k| tri[k] == a && tri[(k + 1) % 3] == b)
+    let [p, q, r] = tri;
+    (p == a && q == b) || (q == a && r == b) || (r == a && p == b)
 }
 
 /// The corner of `tri` that is neither a nor b.
@@ -341,7 +402,7 @@ pub fn couplings(
     for (o, e) in out.iter_mut().zip(edges) {
         *o = *e;
     }
-    for (o, h) in out[edges.len()..].iter_mut().zip(hinges) {
+    for (o, h) in out.iter_mut().skip(edges.len()).zip(hinges) {
         *o = [h[2], h[3]];
     }
     Ok(needed)
@@ -368,24 +429,31 @@ pub fn grid(
     if positions.len() < nv || uvs.len() < nv || triangles.len() < nt {
         return Err(MeshError::BufferTooSmall);
     }
-    for j in 0..ny {
-        for i in 0..nx {
-            let u = width * i as f32 / (nx - 1) as f32;
-            let v = height * j as f32 / (ny - 1) as f32;
-            positions[j * nx + i] = [u, v, 0.0];
-            uvs[j * nx + i] = [u, v];
-        }
+    // vertex k = j nx + i, row by row
+    for (k, (p, uv)) in positions
+        .iter_mut()
+        .zip(uvs.iter_mut())
+        .take(nv)
+        .enumerate()
+    {
+        let (i, j) = (k % nx, k / nx);
+        let u = width * i as f32 / (nx - 1) as f32;
+        let v = height * j as f32 / (ny - 1) as f32;
+        *p = [u, v, 0.0];
+        *uv = [u, v];
     }
-    let mut t = 0;
+    let mut out = triangles.iter_mut();
     for j in 0..ny - 1 {
         for i in 0..nx - 1 {
             let ll = (j * nx + i) as u32;
             let lr = ll + 1;
             let ul = ll + nx as u32;
             let ur = ul + 1;
-            triangles[t] = [ll, lr, ur];
-            triangles[t + 1] = [ll, ur, ul];
-            t += 2;
+            let (Some(lower), Some(upper)) = (out.next(), out.next()) else {
+                return Err(MeshError::BufferTooSmall); // checked above
+            };
+            *lower = [ll, lr, ur];
+            *upper = [ll, ur, ul];
         }
     }
     Ok((nv, nt))

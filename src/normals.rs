@@ -1,12 +1,5 @@
 //! Area-weighted vertex normals of the coarse cloth: the fallback normal of a collapsed triangle's
 //! frame, the wind and drag direction, and the normals that localization blends.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::fmt;
 

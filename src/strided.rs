@@ -10,13 +10,6 @@
 //!
 //! A plain `&[[f32; N]]` / `&mut [[f32; N]]` is a strided buffer too:
 //! [`Strided::from_slice`], [`StridedMut::from_slice`].
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::fmt;
 

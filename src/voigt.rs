@@ -23,11 +23,11 @@ pub fn is_spd(c: &Voigt) -> bool {
     if !scale.is_finite() || scale <= 0.0 || c.iter().flatten().any(|v| !v.is_finite()) {
         return false;
     }
-    for i in 0..3 {
-        for j in 0..i {
-            if (c[i][j] - c[j][i]).abs() > 1e-9 * scale {
-                return false;
-            }
+    // lower against upper triangle, (1, 0), (2, 0), (2, 1)
+    let [[_, c01, c02], [c10, _, c12], [c20, c21, _]] = *c;
+    for (lower, upper) in [(c10, c01), (c20, c02), (c21, c12)] {
+        if (lower - upper).abs() > 1e-9 * scale {
+            return false;
         }
     }
     let m1 = c[0][0];
@@ -50,12 +50,13 @@ pub fn inverse3(m: &Voigt) -> Option<Voigt> {
     if !d.is_finite() || d == 0.0 {
         return None;
     }
+    let at = |i: usize, j: usize| m.get(i).and_then(|row| row.get(j)).copied();
     let mut r = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
+    for (i, ri) in r.iter_mut().enumerate() {
+        for (j, rij) in ri.iter_mut().enumerate() {
             let (i1, i2) = ((j + 1) % 3, (j + 2) % 3);
             let (j1, j2) = ((i + 1) % 3, (i + 2) % 3);
-            r[i][j] = (m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]) / d;
+            *rij = (at(i1, j1)? * at(i2, j2)? - at(i1, j2)? * at(i2, j1)?) / d;
         }
     }
     Some(r)

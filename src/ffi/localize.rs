@@ -42,7 +42,7 @@ unsafe fn bindings_block<'a>(p: *const c_void, size: usize) -> FfiResult<(u64, &
     if p.is_null() {
         return Err(null(c"bindings"));
     }
-    if (p as usize) % WEFT_BIND_MEMORY_ALIGN != 0 {
+    if !(p as usize).is_multiple_of(WEFT_BIND_MEMORY_ALIGN) {
         return Err(fault(R::Misaligned).what(c"bindings"));
     }
     // A block never needs more than isize::MAX bytes (the kernel refuses larger counts).
@@ -66,7 +66,7 @@ unsafe fn frames_at<'a>(p: *const c_void, w: &WeftWorld) -> FfiResult<&'a [Verte
     if p.is_null() {
         return Err(null(c"frames"));
     }
-    if (p as usize) % WEFT_LOCALIZE_FRAMES_ALIGN != 0 {
+    if !(p as usize).is_multiple_of(WEFT_LOCALIZE_FRAMES_ALIGN) {
         return Err(fault(R::Misaligned).what(c"frames"));
     }
     // SAFETY: readable and aligned per the contract; FramesHeader is plain integers, valid for
@@ -183,7 +183,7 @@ pub unsafe extern "C" fn weft_bind(
         if out_bindings.is_null() {
             return Err(null(c"out_bindings"));
         }
-        if (out_bindings as usize) % WEFT_BIND_MEMORY_ALIGN != 0 {
+        if !(out_bindings as usize).is_multiple_of(WEFT_BIND_MEMORY_ALIGN) {
             return Err(fault(R::Misaligned).what(c"out_bindings"));
         }
         let n = fine_vertex_count as usize;
@@ -282,7 +282,7 @@ pub unsafe extern "C" fn weft_localize_prepare(
         if frames.is_null() {
             return Err(null(c"frames"));
         }
-        if (frames as usize) % WEFT_LOCALIZE_FRAMES_ALIGN != 0 {
+        if !(frames as usize).is_multiple_of(WEFT_LOCALIZE_FRAMES_ALIGN) {
             return Err(fault(R::Misaligned).what(c"frames"));
         }
         let n = w.world.vertex_count();

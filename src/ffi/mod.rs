@@ -25,13 +25,6 @@
 //!
 //! Comments starting with `///` become the header's documentation: they are written for a C
 //! programmer who never reads the Rust.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::mem::{align_of, size_of};
 
@@ -177,7 +170,7 @@ const LOCALIZE_OUTPUT_COOKIE: u32 = 0x5746_4C31; // "WFL1"
 // The header reservation holds the handle struct, whatever the kernel's `World` grows to.
 const _: () = assert!(size_of::<WeftWorld>() <= WEFT_WORLD_HEADER_SIZE);
 const _: () = assert!(align_of::<WeftWorld>() <= WEFT_WORLD_MEMORY_ALIGN);
-const _: () = assert!(WEFT_WORLD_HEADER_SIZE % WEFT_WORLD_MEMORY_ALIGN == 0);
+const _: () = assert!(WEFT_WORLD_HEADER_SIZE.is_multiple_of(WEFT_WORLD_MEMORY_ALIGN));
 const _: () = assert!(WEFT_BLOB_ALIGN == crate::blob::BASE_ALIGN);
 const _: () = assert!(WEFT_BLOB_VERSION == crate::blob::VERSION);
 const _: () = assert!(WEFT_EFFECT_ALL == crate::world::effects::ALL);

@@ -228,7 +228,7 @@ unsafe fn create(
     if memory.is_null() {
         return Err(null(c"memory"));
     }
-    if (memory as usize) % WEFT_WORLD_MEMORY_ALIGN != 0 {
+    if !(memory as usize).is_multiple_of(WEFT_WORLD_MEMORY_ALIGN) {
         return Err(fault(R::Misaligned).what(c"memory"));
     }
     let capacity = capacity_of(&d.capacity);

@@ -17,13 +17,6 @@
 //!   [`FramesHeader::check`] says whether one may be used with a world.
 //!
 //! Sizes are [`block_bytes`]: a header plus `n` records, refused beyond `isize::MAX` bytes.
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::fmt;
 use core::mem::{align_of, size_of};
@@ -54,12 +47,12 @@ const FRAMES_COOKIE: u32 = 0x5746_5231; // "WFR1"
 const _: () = assert!(BINDINGS_HEADER_SIZE == 16 && BINDING_SIZE == 36);
 const _: () = assert!(align_of::<Binding>() <= BINDINGS_ALIGN);
 const _: () = assert!(align_of::<BindingsHeader>() <= BINDINGS_ALIGN);
-const _: () = assert!(BINDINGS_HEADER_SIZE % align_of::<Binding>() == 0);
+const _: () = assert!(BINDINGS_HEADER_SIZE.is_multiple_of(align_of::<Binding>()));
 const _: () = assert!(FRAMES_HEADER_SIZE == 32 && FRAME_SIZE == 80);
 const _: () = assert!(align_of::<VertexFrame>() <= FRAMES_ALIGN);
 const _: () = assert!(align_of::<FramesHeader>() <= FRAMES_ALIGN);
-const _: () = assert!(FRAMES_HEADER_SIZE % FRAMES_ALIGN == 0);
-const _: () = assert!(FRAME_SIZE % FRAMES_ALIGN == 0);
+const _: () = assert!(FRAMES_HEADER_SIZE.is_multiple_of(FRAMES_ALIGN));
+const _: () = assert!(FRAME_SIZE.is_multiple_of(FRAMES_ALIGN));
 
 /// The start of a bindings block.
 #[repr(C)]

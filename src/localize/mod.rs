@@ -56,13 +56,6 @@
 //! prepare(&world, StrainMeasure::Corotated, &mut frames)?;
 //! localize(&frames, world.triangles(), &bindings, 0, &mut positions, Some(NormalTarget::Interleaved { offset: 12 }))?;
 //! ```
-#![deny(
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::unreachable
-)]
 
 use core::fmt;
 

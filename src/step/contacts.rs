@@ -9,10 +9,10 @@
 use glam::{Mat3A, Vec3A};
 
 use super::system::outer;
-use super::{monitor, Substep};
+use super::{live, live_mut, monitor, Substep};
 use crate::collide;
 use crate::mesh;
-use crate::world::{effects, Arrays, Counts, Settings};
+use crate::world::{effects, Arrays, Counts, Settings, StepError};
 
 /// Flag in `Arrays::contact`: static friction holds the vertex to its collider.
 pub(crate) const STICK: u32 = 1 << 31;
@@ -36,15 +36,22 @@ fn pins_on(c: &Counts, st: &Settings) -> bool {
 
 /// Sets the PCG filter and the prescribed velocity changes; returns whether any vertex is
 /// constrained (without constraints the solve runs its filter-free path).
-pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> bool {
+pub(crate) fn constrain(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<bool, StepError> {
     let (n, h) = (c.n, sub.h);
     let collide = collide_on(c, st);
     let pins = pins_on(c, st);
     if !(collide || pins) {
-        return false;
+        return Ok(false);
     }
     let mut constrained = false;
-    a.filter[..n].fill(Mat3A::IDENTITY);
+    let (x, v) = (live(a.x, n)?, live(a.v, n)?);
+    let (filter, dv) = (live_mut(a.filter, n)?, live_mut(a.dv, n)?);
+    filter.fill(Mat3A::IDENTITY);
     // Contact slop: a vertex predicted to end within this of its offset surface is held too.
     // A cloth resting on a collider sits exactly on it after each substep; with a strict test
     // its vertices flicker in and out of the contact set, and the ones let go fall in for a
@@ -57,12 +64,17 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
     let fall = gravity.length() * h * h;
     let slop = |thickness: f32| 0.1 * thickness + fall;
     if collide {
-        for i in 0..n {
-            let before_substep = a.contact[i];
-            a.contact[i] = mesh::NONE;
-            let (xi, vi) = (a.x[i], a.v[i]);
+        let colliders = live(a.colliders, c.colliders)?;
+        let vertices = live_mut(a.contact, n)?
+            .iter_mut()
+            .zip(filter.iter_mut())
+            .zip(dv.iter_mut())
+            .zip(x.iter().zip(v));
+        for (((contact, filter_i), dv_i), (&xi, &vi)) in vertices {
+            let before_substep = *contact;
+            *contact = mesh::NONE;
             let mut deepest = f32::INFINITY;
-            for (k, col) in a.colliders[..c.colliders].iter().enumerate() {
+            for (k, col) in colliders.iter().enumerate() {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
                 let prox = shape.proximity(xi);
@@ -90,16 +102,16 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
                         // Static friction held it: it moves with the surface (all three
                         // directions prescribed); the solve's impulse says whether the
                         // friction cone still holds it (`resolve`).
-                        a.filter[i] = Mat3A::ZERO;
-                        a.dv[i] = vs - nrm * vs.dot(nrm) + nrm * target_vn - vi;
+                        *filter_i = Mat3A::ZERO;
+                        *dv_i = vs - nrm * vs.dot(nrm) + nrm * target_vn - vi;
                     } else {
                         let filter = Mat3A::IDENTITY - outer(nrm, nrm);
-                        a.filter[i] = filter;
-                        a.dv[i] = filter * a.dv[i] + nrm * (target_vn - vi.dot(nrm));
+                        *filter_i = filter;
+                        *dv_i = filter * *dv_i + nrm * (target_vn - vi.dot(nrm));
                     }
                     // on the same collider it keeps sticking (or sliding): `resolve` decides
                     // again from the solve's impulse; a new contact starts sliding
-                    a.contact[i] = if collider_of(before_substep) == k {
+                    *contact = if collider_of(before_substep) == k {
                         before_substep
                     } else {
                         k as u32
@@ -110,57 +122,90 @@ pub(crate) fn constrain(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subs
         }
     }
     if pins {
-        for p in 0..c.pins {
-            let i = a.pin_vertex[p] as usize;
-            let target = a.pin_previous[p].lerp(a.pin_target[p], sub.t);
+        let pinned = live(a.pin_vertex, c.pins)?
+            .iter()
+            .zip(live(a.pin_previous, c.pins)?)
+            .zip(live(a.pin_target, c.pins)?);
+        for ((&vertex, &previous), &target) in pinned {
+            let i = vertex as usize;
+            let target = previous.lerp(target, sub.t);
+            let (Some(dv_i), Some(filter_i), Some(&xi), Some(&vi)) =
+                (dv.get_mut(i), filter.get_mut(i), x.get(i), v.get(i))
+            else {
+                return Err(StepError::SolverBreakdown); // pinned vertices are < n
+            };
             // land exactly on the target at the end of the substep
-            a.dv[i] = (target - a.x[i]) / h - a.v[i];
-            a.filter[i] = Mat3A::ZERO;
+            *dv_i = (target - xi) / h - vi;
+            *filter_i = Mat3A::ZERO;
             constrained = true;
         }
     }
-    constrained
+    Ok(constrained)
 }
 
 /// The work (J) moving pins and colliders did on the cloth during the solve: the constraint
 /// impulse `J = (I − S)(A Δv − rhs)` (`a.w_q` holds `A Δv`, see `system::solve`) times the
 /// velocity of what holds the vertex (a pin's target, a collider's surface). Still pins and
 /// colliders do no work: their impulses only redirect motion.
-pub(crate) fn constraint_work(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> f64 {
+pub(crate) fn constraint_work(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<f64, StepError> {
+    let n = c.n;
+    let (w_q, rhs) = (live(a.w_q, n)?, live(a.rhs, n)?);
     let mut work = 0.0f64;
     if pins_on(c, st) {
-        for p in 0..c.pins {
-            let i = a.pin_vertex[p] as usize;
-            let moved = a.pin_previous[p].lerp(a.pin_target[p], sub.t)
-                - a.pin_previous[p].lerp(a.pin_target[p], sub.t0);
+        let pinned = live(a.pin_vertex, c.pins)?
+            .iter()
+            .zip(live(a.pin_previous, c.pins)?)
+            .zip(live(a.pin_target, c.pins)?);
+        for ((&vertex, &previous), &target) in pinned {
+            let i = vertex as usize;
+            let moved = previous.lerp(target, sub.t) - previous.lerp(target, sub.t0);
             if moved != Vec3A::ZERO {
-                let impulse = a.w_q[i] - a.rhs[i];
+                let (Some(&aq), Some(&b)) = (w_q.get(i), rhs.get(i)) else {
+                    return Err(StepError::SolverBreakdown); // pinned vertices are < n
+                };
+                let impulse = aq - b;
                 work += f64::from(impulse.dot(moved / sub.h));
             }
         }
     }
     if collide_on(c, st) {
-        for i in 0..c.n {
-            let Some(col) = a.colliders[..c.colliders].get(collider_of(a.contact[i])) else {
+        let colliders = live(a.colliders, c.colliders)?;
+        let vertices = live(a.contact, n)?
+            .iter()
+            .zip(live(a.pin_of, n)?)
+            .zip(live(a.x, n)?.iter().zip(live(a.filter, n)?))
+            .zip(w_q.iter().zip(rhs));
+        for (((&contact, &pin), (&xi, &filter)), (&aq, &b)) in vertices {
+            let Some(col) = colliders.get(collider_of(contact)) else {
                 continue;
             };
-            if col.previous == col.shape || a.pin_of[i] != mesh::NONE {
+            if col.previous == col.shape || pin != mesh::NONE {
                 continue;
             }
             let shape = col.previous.lerp(&col.shape, sub.t);
             let before = col.previous.lerp(&col.shape, sub.t0);
-            let vs = shape.surface_velocity(&before, a.x[i], sub.h);
-            let held = Mat3A::IDENTITY - a.filter[i];
-            work += f64::from((held * (a.w_q[i] - a.rhs[i])).dot(vs));
+            let vs = shape.surface_velocity(&before, xi, sub.h);
+            let held = Mat3A::IDENTITY - filter;
+            work += f64::from((held * (aq - b)).dot(vs));
         }
     }
-    work
+    Ok(work)
 }
 
 /// After `x += h v`: friction for held contacts, projection out of every collider, pins
 /// exactly on target. Returns the vertices touching a collider and the work (J) done from
 /// outside through friction and projection (moving colliders, depenetration).
-pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> (u32, f64) {
+pub(crate) fn resolve(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<(u32, f64), StepError> {
     let (n, h) = (c.n, sub.h);
     let pins = pins_on(c, st);
     let mut contacts = 0;
@@ -171,47 +216,56 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
     // on the cloth from outside: the potential energy it changes is input to the energy
     // balance (measured, as it can be far from linear). A still collider's projection of a
     // vertex that entered during the substep is not input: a gain there is the step's own.
-    let driven = collide_on(c, st) && projection_is_driven(a, c, st, sub);
+    let driven = collide_on(c, st) && projection_is_driven(a, c, st, sub)?;
     let potential_before = if driven {
-        monitor::potential(a, c, st)
+        monitor::potential(a, c, st)?
     } else {
         0.0
     };
     if collide_on(c, st) {
-        for i in 0..n {
-            if pins && a.pin_of[i] != mesh::NONE {
+        let colliders = live(a.colliders, c.colliders)?;
+        let held = live(a.pin_of, n)?
+            .iter()
+            .zip(live(a.mass, n)?)
+            .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
+        let moving = live_mut(a.x, n)?
+            .iter_mut()
+            .zip(live_mut(a.v, n)?.iter_mut())
+            .zip(live_mut(a.contact, n)?.iter_mut());
+        for (((&pin, &mass), (&aq, &b)), ((xi, vi), contact)) in held.zip(moving) {
+            if pins && pin != mesh::NONE {
                 continue;
             }
             let mut touched = false;
-            let v_before = a.v[i];
+            let v_before = *vi;
             let mut vs_held = Vec3A::ZERO;
             // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
             // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a sliding
             // one loses at most `μ J_n / m` of its tangential velocity relative to the surface
             // and sticks once that stops it.
-            if let Some(col) = a.colliders[..c.colliders].get(collider_of(a.contact[i])) {
+            if let Some(col) = colliders.get(collider_of(*contact)) {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
-                let vs = shape.surface_velocity(&before, a.x[i], h);
-                let nrm = shape.proximity(a.x[i]).normal;
-                let impulse = a.w_q[i] - a.rhs[i];
+                let vs = shape.surface_velocity(&before, *xi, h);
+                let nrm = shape.proximity(*xi).normal;
+                let impulse = aq - b;
                 let normal = impulse.dot(nrm).max(0.0);
                 let limit = col.friction * normal;
-                if a.contact[i] & STICK != 0 {
+                if *contact & STICK != 0 {
                     let tangential = impulse - nrm * impulse.dot(nrm);
                     if tangential.length() > limit {
-                        a.contact[i] &= !STICK;
+                        *contact &= !STICK;
                     }
                 } else {
-                    let rel = a.v[i] - vs;
+                    let rel = *vi - vs;
                     let vt = rel - nrm * rel.dot(nrm);
                     let vt_len = vt.length();
-                    let stop = limit / a.mass[i].max(f32::MIN_POSITIVE);
+                    let stop = limit / mass.max(f32::MIN_POSITIVE);
                     if vt_len <= stop {
-                        a.v[i] -= vt;
-                        a.contact[i] |= STICK;
+                        *vi -= vt;
+                        *contact |= STICK;
                     } else {
-                        a.v[i] -= vt * (stop / vt_len);
+                        *vi -= vt * (stop / vt_len);
                     }
                 }
                 vs_held = vs;
@@ -219,18 +273,11 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
             }
             // Projection: nothing ends the substep deeper than `thickness`.
 
-            for col in &a.colliders[..c.colliders] {
+            for col in colliders {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
-                let vs = shape.surface_velocity(&before, a.x[i], h);
-                let hit = collide::resolve(
-                    &shape,
-                    vs,
-                    col.thickness,
-                    col.friction,
-                    &mut a.x[i],
-                    &mut a.v[i],
-                );
+                let vs = shape.surface_velocity(&before, *xi, h);
+                let hit = collide::resolve(&shape, vs, col.thickness, col.friction, xi, vi);
                 if hit && vs != Vec3A::ZERO {
                     vs_held = vs;
                 }
@@ -238,47 +285,64 @@ pub(crate) fn resolve(a: &mut Arrays<'_>, c: &Counts, st: &Settings, sub: Subste
             }
             if touched && vs_held != Vec3A::ZERO {
                 // a moving surface does work m Δv · v_s through what it changed
-                work += f64::from(a.mass[i] * (a.v[i] - v_before).dot(vs_held));
+                work += f64::from(mass * (*vi - v_before).dot(vs_held));
             }
             contacts += touched as u32;
         }
     }
     if pins {
-        for p in 0..c.pins {
-            let i = a.pin_vertex[p] as usize;
-            a.x[i] = a.pin_previous[p].lerp(a.pin_target[p], sub.t);
+        let x = live_mut(a.x, n)?;
+        let pinned = live(a.pin_vertex, c.pins)?
+            .iter()
+            .zip(live(a.pin_previous, c.pins)?)
+            .zip(live(a.pin_target, c.pins)?);
+        for ((&vertex, &previous), &target) in pinned {
+            // pinned vertices are < n
+            let xi = x
+                .get_mut(vertex as usize)
+                .ok_or(StepError::SolverBreakdown)?;
+            *xi = previous.lerp(target, sub.t);
         }
     }
     if driven {
-        work += monitor::potential(a, c, st) - potential_before;
+        work += monitor::potential(a, c, st)? - potential_before;
     }
-    (contacts, work)
+    Ok((contacts, work))
 }
 
 /// Whether a moving collider will push a vertex out in this substep's projection, or a vertex
 /// began the substep deeper inside a collider than its contact could push it out of.
-fn projection_is_driven(a: &Arrays<'_>, c: &Counts, st: &Settings, sub: Substep) -> bool {
+fn projection_is_driven(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<bool, StepError> {
     let pins = pins_on(c, st);
-    for i in 0..c.n {
-        if pins && a.pin_of[i] != mesh::NONE {
+    let colliders = live(a.colliders, c.colliders)?;
+    let vertices = live(a.pin_of, c.n)?
+        .iter()
+        .zip(live(a.x, c.n)?.iter().zip(live(a.v, c.n)?));
+    for (&pin, (&xi, &vi)) in vertices {
+        if pins && pin != mesh::NONE {
             continue;
         }
         // where the vertex began the substep (x was just advanced by exactly h v)
-        let (x, start) = (a.x[i], a.x[i] - a.v[i] * sub.h);
-        for col in &a.colliders[..c.colliders] {
+        let (x, start) = (xi, xi - vi * sub.h);
+        for col in colliders {
             let shape = col.previous.lerp(&col.shape, sub.t);
             if shape.proximity(x).distance >= col.thickness {
                 continue;
             }
             if col.previous != col.shape {
-                return true;
+                return Ok(true);
             }
             let before = col.previous.lerp(&col.shape, sub.t0);
             let depth = col.thickness - before.proximity(start).distance;
             if depth > 0.1 * col.thickness + sub.h * st.max_depenetration_speed {
-                return true;
+                return Ok(true);
             }
         }
     }
-    false
+    Ok(false)
 }

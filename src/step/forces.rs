@@ -12,10 +12,11 @@
 
 use glam::Vec3A;
 
+use super::{live, live_mut, pattern};
 use crate::bending;
 use crate::membrane;
 use crate::normals;
-use crate::sparse::{self, Pattern};
+use crate::sparse;
 use crate::world::{effects, Arrays, Counts, Settings, StepError};
 
 /// Fills `a.rhs` with `h (f − (β + h) K_w v)`, `a.force` with the elastic force and
@@ -43,24 +44,24 @@ pub(crate) fn accumulate(
     } else if eff & effects::WIND != 0 {
         // The wind's direction.
         normals::vertex_normals(
-            &a.triangles[..c.nt],
-            &a.tri_sign[..c.nt],
-            &a.x[..n],
-            &mut a.normals[..n],
+            live(a.triangles, c.nt)?,
+            live(a.tri_sign, c.nt)?,
+            live(a.x, n)?,
+            live_mut(a.normals, n)?,
         )
         .map_err(|_| StepError::SolverBreakdown)?;
     }
     // Membrane: Green strain (or plain linear FEM; or, for per-node warping, the unrotated
     // K that Eq. 17 rotates node by node).
     let elastic = membrane::assemble(
-        &a.triangles[..c.nt],
-        &a.elements[..c.nt],
-        &a.slots[..c.nt],
-        &a.x[..n],
+        live(a.triangles, c.nt)?,
+        live(a.elements, c.nt)?,
+        live(a.slots, c.nt)?,
+        live(a.x, n)?,
         membrane_strain(warping && !per_node),
-        &mut a.k_diag[..n],
-        &mut a.k_off[..c.nnz],
-        &mut a.force[..n],
+        live_mut(a.k_diag, n)?,
+        live_mut(a.k_off, c.nnz)?,
+        live_mut(a.force, n)?,
     )
     .map_err(|_| StepError::SolverBreakdown)?;
     // Implicit and Rayleigh terms: rhs = f − (β + h) K_w v  (K_w = R K Rᵀ + B Q).
@@ -71,15 +72,12 @@ pub(crate) fn accumulate(
     } else {
         elastic_rhs(a, c, bending_on, c_kv)?;
     }
-    let pattern = Pattern {
-        row_start: &a.row_start[..n + 1],
-        cols: &a.cols[..c.nnz],
-    };
-    let (x, v) = (&a.x[..n], &a.v[..n]);
-    let rhs = &mut a.rhs[..n];
+    let pattern = pattern(a.row_start, a.cols, c)?;
+    let (x, v) = (live(a.x, n)?, live(a.v, n)?);
+    let rhs = live_mut(a.rhs, n)?;
     if bending_on {
         // Bending force −B Q x (Q annihilates the flat rest shape, so no rest term).
-        bending::add_forces(&pattern, &a.q_off[..c.nnz], x, rhs)
+        bending::add_forces(&pattern, live(a.q_off, c.nnz)?, x, rhs)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
     let gravity = Vec3A::from(st.gravity);
@@ -88,9 +86,9 @@ pub(crate) fn accumulate(
     let wind = Vec3A::from(st.wind);
     for (((r, &m), vi), (nrm, &area)) in rhs
         .iter_mut()
-        .zip(&a.mass[..n])
+        .zip(live(a.mass, n)?)
         .zip(v)
-        .zip(a.normals[..n].iter().zip(&a.area[..n]))
+        .zip(live(a.normals, n)?.iter().zip(live(a.area, n)?))
     {
         let mut f = *r;
         if gravity_on {
@@ -127,18 +125,20 @@ fn elastic_rhs(
     c_kv: f32,
 ) -> Result<(), StepError> {
     let n = c.n;
-    let pattern = Pattern {
-        row_start: &a.row_start[..n + 1],
-        cols: &a.cols[..c.nnz],
-    };
-    let (v, kv) = (&a.v[..n], &mut a.w_r[..n]);
-    sparse::mul(&a.k_diag[..n], &pattern, &a.k_off[..c.nnz], v, kv)
+    let pattern = pattern(a.row_start, a.cols, c)?;
+    let (v, kv) = (live(a.v, n)?, live_mut(a.w_r, n)?);
+    sparse::mul(live(a.k_diag, n)?, &pattern, live(a.k_off, c.nnz)?, v, kv)
         .map_err(|_| StepError::SolverBreakdown)?;
     if bending_on {
-        sparse::mul_scalar_add(&a.q_diag[..n], &pattern, &a.q_off[..c.nnz], 1.0, v, kv)
+        let (q_diag, q_off) = (live(a.q_diag, n)?, live(a.q_off, c.nnz)?);
+        sparse::mul_scalar_add(q_diag, &pattern, q_off, 1.0, v, kv)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
-    for ((r, f), kv) in a.rhs[..n].iter_mut().zip(&a.force[..n]).zip(kv.iter()) {
+    for ((r, f), kv) in live_mut(a.rhs, n)?
+        .iter_mut()
+        .zip(live(a.force, n)?)
+        .zip(kv.iter())
+    {
         *r = *f - *kv * c_kv;
     }
     Ok(())
@@ -147,15 +147,24 @@ fn elastic_rhs(
 /// The work (J) the moving air does on the cloth in a substep of length `h` ending with
 /// velocities `a.v`: the wind-driven part `drag·area·(w·n) n` of the drag force. The rest of
 /// the drag, `−drag·area·(v·n) n`, only dissipates.
-pub(crate) fn wind_work(a: &Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> f64 {
+pub(crate) fn wind_work(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    h: f32,
+) -> Result<f64, StepError> {
     if st.effects & effects::WIND == 0 || st.drag <= 0.0 {
-        return 0.0;
+        return Ok(0.0);
     }
     let wind = Vec3A::from(st.wind);
     let n = c.n;
     let mut work = 0.0f64;
-    for ((nrm, &area), vi) in a.normals[..n].iter().zip(&a.area[..n]).zip(&a.v[..n]) {
+    for ((nrm, &area), vi) in live(a.normals, n)?
+        .iter()
+        .zip(live(a.area, n)?)
+        .zip(live(a.v, n)?)
+    {
         work += f64::from(st.drag * area * wind.dot(*nrm) * nrm.dot(*vi) * h);
     }
-    work
+    Ok(work)
 }

@@ -16,7 +16,32 @@ pub(crate) mod system;
 use glam::Vec3A;
 
 use crate::pcg;
+use crate::sparse::Pattern;
 use crate::world::{Arrays, Counts, Settings, StepError};
+
+/// The live prefix `..n` of one of the world's capacity-long arrays. A world's counts never
+/// exceed its capacity, so the error cannot happen; it stands in for the index that is not
+/// made (the kernel does not index).
+pub(crate) fn live<T>(array: &[T], n: usize) -> Result<&[T], StepError> {
+    array.get(..n).ok_or(StepError::SolverBreakdown)
+}
+
+/// [`live`] for an array the stage writes.
+pub(crate) fn live_mut<T>(array: &mut [T], n: usize) -> Result<&mut [T], StepError> {
+    array.get_mut(..n).ok_or(StepError::SolverBreakdown)
+}
+
+/// The world's block pattern (`row_start[..n + 1]`, `cols[..nnz]`), checked like [`live`].
+pub(crate) fn pattern<'p>(
+    row_start: &'p [u32],
+    cols: &'p [u32],
+    c: &Counts,
+) -> Result<Pattern<'p>, StepError> {
+    Ok(Pattern {
+        row_start: live(row_start, c.n + 1)?,
+        cols: live(cols, c.nnz)?,
+    })
+}
 
 /// Where a substep lies in its step: its length `h` (s), and the fractions of the step at
 /// which it starts (`t0`) and ends (`t`); pins and colliders are swept linearly across a step.
@@ -45,19 +70,23 @@ pub(crate) fn substep(
     sub: Substep,
 ) -> Result<Report, StepError> {
     forces::accumulate(a, c, st, sub.h)?;
-    let constrained = contacts::constrain(a, c, st, sub);
+    let constrained = contacts::constrain(a, c, st, sub)?;
     let solve = system::solve(a, c, st, sub.h, constrained)?;
     let mut input = if constrained {
-        contacts::constraint_work(a, c, st, sub)
+        contacts::constraint_work(a, c, st, sub)?
     } else {
         0.0
     };
-    integrate(a, c, sub.h, solve.converged);
-    input += forces::wind_work(a, c, st, sub.h);
-    let (touching, work) = contacts::resolve(a, c, st, sub);
+    integrate(a, c, sub.h, solve.converged)?;
+    input += forces::wind_work(a, c, st, sub.h)?;
+    let (touching, work) = contacts::resolve(a, c, st, sub)?;
     input += work;
     let n = c.n;
-    if !a.x[..n].iter().chain(&a.v[..n]).all(|p| p.is_finite()) {
+    if !live(a.x, n)?
+        .iter()
+        .chain(live(a.v, n)?)
+        .all(|p| p.is_finite())
+    {
         return Err(StepError::NonFiniteState);
     }
     Ok(Report {
@@ -70,13 +99,15 @@ pub(crate) fn substep(
 /// `v += Δv`, `x += h v`. A solve stopped by the iteration cap leaves a `Δv` that is no warm
 /// start to trust (warm-starting from it injected energy at 161×161): the next solve starts
 /// from zero instead.
-fn integrate(a: &mut Arrays<'_>, c: &Counts, h: f32, converged: bool) {
+fn integrate(a: &mut Arrays<'_>, c: &Counts, h: f32, converged: bool) -> Result<(), StepError> {
     let n = c.n;
-    for ((x, v), d) in a.x[..n].iter_mut().zip(&mut a.v[..n]).zip(&a.dv[..n]) {
+    let (x, v, dv) = (live_mut(a.x, n)?, live_mut(a.v, n)?, live_mut(a.dv, n)?);
+    for ((x, v), d) in x.iter_mut().zip(v.iter_mut()).zip(dv.iter()) {
         *v += *d;
         *x += *v * h;
     }
     if !converged {
-        a.dv[..n].fill(Vec3A::ZERO);
+        dv.fill(Vec3A::ZERO);
     }
+    Ok(())
 }

@@ -21,8 +21,9 @@ use glam::Vec3A;
 
 use crate::bending;
 use crate::membrane;
-use crate::sparse::Pattern;
-use crate::world::{effects, Arrays, Counts, Settings};
+use crate::world::{effects, Arrays, Counts, Settings, StepError};
+
+use super::{live, live_mut, pattern};
 
 /// Times a step is redone with twice the substeps before its excess energy is removed.
 pub(crate) const MAX_REDOS: u32 = 2;
@@ -36,50 +37,49 @@ pub(crate) struct Level {
 
 /// Kinetic + elastic (as the step's forces see it) + bending energy of the current
 /// state, with a bound on its `f32` round-off.
-pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Level {
+pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, StepError> {
     let n = c.n;
     let eff = st.effects;
+    let x = live(a.x, n)?;
     let elastic = membrane::elastic_energy(
-        &a.triangles[..c.nt],
-        &a.elements[..c.nt],
-        &a.x[..n],
+        live(a.triangles, c.nt)?,
+        live(a.elements, c.nt)?,
+        x,
         super::forces::membrane_strain(eff & effects::WARPING != 0),
     )
     .unwrap_or(0.0);
     let (bending, bending_noise) = if eff & effects::BENDING != 0 {
-        let pattern = Pattern {
-            row_start: &a.row_start[..n + 1],
-            cols: &a.cols[..c.nnz],
-        };
-        bending::energy_with_noise(&pattern, &a.q_off[..c.nnz], &a.x[..n])
+        let pattern = pattern(a.row_start, a.cols, c)?;
+        bending::energy_with_noise(&pattern, live(a.q_off, c.nnz)?, x)
     } else {
         (0.0, 0.0)
     };
-    let kinetic = kinetic(&a.mass[..n], &a.v[..n]);
-    Level {
+    let kinetic = kinetic(live(a.mass, n)?, live(a.v, n)?);
+    Ok(Level {
         energy: kinetic + elastic + bending,
         // Element strains are f32 differences of positions: ~1e-6 relative on the energy of
         // a taut cloth; kinetic energy sums exact f32 products.
         noise: 1e-5 * elastic + 1e-7 * kinetic + bending_noise,
-    }
+    })
 }
 
 /// Elastic + bending energy and the gravitational potential `−Σ m g·x` (J) of the current
 /// positions: what a change of positions alone changes.
-pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> f64 {
-    let level = level(a, c, st);
-    let kinetic = kinetic(&a.mass[..c.n], &a.v[..c.n]);
+pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<f64, StepError> {
+    let level = level(a, c, st)?;
+    let mass = live(a.mass, c.n)?;
+    let kinetic = kinetic(mass, live(a.v, c.n)?);
     let gravity = if st.effects & effects::GRAVITY != 0 {
         let g = Vec3A::from(st.gravity);
-        -a.mass[..c.n]
+        -mass
             .iter()
-            .zip(&a.x[..c.n])
+            .zip(live(a.x, c.n)?)
             .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
             .sum::<f64>()
     } else {
         0.0
     };
-    level.energy - kinetic + gravity
+    Ok(level.energy - kinetic + gravity)
 }
 
 /// `Σ ½ m |v|²` (J).
@@ -92,39 +92,53 @@ pub(crate) fn kinetic(mass: &[f32], v: &[Vec3A]) -> f64 {
 
 /// The work of gravity since the start of the step, `Σ m g·(x − x_start)` (J), and the
 /// round-off of the positions it is measured from.
-pub(crate) fn gravity_work(a: &Arrays<'_>, c: &Counts, st: &Settings) -> (f64, f64) {
+pub(crate) fn gravity_work(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+) -> Result<(f64, f64), StepError> {
     if st.effects & effects::GRAVITY == 0 {
-        return (0.0, 0.0);
+        return Ok((0.0, 0.0));
     }
     let g = Vec3A::from(st.gravity);
     let (mut work, mut noise) = (0.0f64, 0.0f64);
-    for ((&m, x), x0) in a.mass[..c.n].iter().zip(&a.x[..c.n]).zip(&a.x_start[..c.n]) {
+    for ((&m, x), x0) in live(a.mass, c.n)?
+        .iter()
+        .zip(live(a.x, c.n)?)
+        .zip(live(a.x_start, c.n)?)
+    {
         work += f64::from(m) * f64::from(g.dot(*x - *x0));
         noise += f64::from(m * g.length() * f32::EPSILON * x.abs().max_element());
     }
-    (work, noise)
+    Ok((work, noise))
 }
 
 /// Takes up to `excess` joules out of the kinetic energy of the vertices that are not pinned,
 /// by scaling their velocities uniformly (directions kept); returns what it took (J).
-pub(crate) fn remove_kinetic(a: &mut Arrays<'_>, c: &Counts, pins_on: bool, excess: f64) -> f64 {
-    let pin_of = &a.pin_of[..c.n];
+pub(crate) fn remove_kinetic(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    pins_on: bool,
+    excess: f64,
+) -> Result<f64, StepError> {
+    let pin_of = live(a.pin_of, c.n)?;
     let free = |i: usize| !(pins_on && pin_of.get(i).is_some_and(|&p| p != crate::mesh::NONE));
+    let v = live_mut(a.v, c.n)?;
     let mut free_kinetic = 0.0f64;
-    for (i, (&m, v)) in a.mass[..c.n].iter().zip(&a.v[..c.n]).enumerate() {
+    for (i, (&m, v)) in live(a.mass, c.n)?.iter().zip(v.iter()).enumerate() {
         if free(i) {
             free_kinetic += 0.5 * f64::from(m) * f64::from(v.length_squared());
         }
     }
     if !(excess > 0.0 && free_kinetic > 0.0) {
-        return 0.0;
+        return Ok(0.0);
     }
     let taken = excess.min(free_kinetic);
     let scale = libm::sqrt((free_kinetic - taken) / free_kinetic) as f32;
-    for (i, v) in a.v[..c.n].iter_mut().enumerate() {
+    for (i, v) in v.iter_mut().enumerate() {
         if free(i) {
             *v *= scale;
         }
     }
-    taken
+    Ok(taken)
 }

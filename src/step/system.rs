@@ -8,9 +8,10 @@
 
 use glam::{Mat3A, Vec3, Vec3A};
 
+use super::{live, live_mut, pattern};
 use crate::multigrid;
 use crate::pcg;
-use crate::sparse::{self, Pattern};
+use crate::sparse;
 use crate::world::{effects, Arrays, Counts, Settings, Solver, StepError};
 
 /// Absolute floor of the step's CG (`pcg::Settings::floor`) as a velocity: the solve stops
@@ -52,15 +53,18 @@ pub(crate) fn solve(
     } else {
         0.0
     };
-    for (k, q) in a.k_off[..c.nnz].iter_mut().zip(&a.q_off[..c.nnz]) {
+    for (k, q) in live_mut(a.k_off, c.nnz)?
+        .iter_mut()
+        .zip(live(a.q_off, c.nnz)?)
+    {
         let b = if bending_on { *q } else { 0.0 };
         *k = (*k + Mat3A::from_diagonal(Vec3::splat(b))) * c_k;
     }
-    for (((d, &m), &q), (nrm, &area)) in a.k_diag[..n]
+    for (((d, &m), &q), (nrm, &area)) in live_mut(a.k_diag, n)?
         .iter_mut()
-        .zip(&a.mass[..n])
-        .zip(&a.q_diag[..n])
-        .zip(a.normals[..n].iter().zip(&a.area[..n]))
+        .zip(live(a.mass, n)?)
+        .zip(live(a.q_diag, n)?)
+        .zip(live(a.normals, n)?.iter().zip(live(a.area, n)?))
     {
         let b = if bending_on { q } else { 0.0 };
         *d = *d * c_k + Mat3A::from_diagonal(Vec3::splat(b * c_k + c_m * m));
@@ -69,20 +73,17 @@ pub(crate) fn solve(
         }
     }
     let op = sparse::BlockMatrix {
-        diag: &a.k_diag[..n],
-        pattern: Pattern {
-            row_start: &a.row_start[..n + 1],
-            cols: &a.cols[..c.nnz],
-        },
-        off: &a.k_off[..c.nnz],
+        diag: live(a.k_diag, n)?,
+        pattern: pattern(a.row_start, a.cols, c)?,
+        off: live(a.k_off, c.nnz)?,
     };
     let filter = if constrained {
-        Some(&a.filter[..n])
+        Some(live(a.filter, n)?)
     } else {
         None
     };
-    let dv = &mut a.dv[..n];
-    let rhs = &a.rhs[..n];
+    let dv = live_mut(a.dv, n)?;
+    let rhs = live(a.rhs, n)?;
     let mut result = Err(pcg::PcgError::Breakdown);
     if c.solver == Solver::Multigrid {
         // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
@@ -91,19 +92,19 @@ pub(crate) fn solve(
             .force
             .split_at_mut(multigrid::vectors_len(n, c.nnz).min(n));
         let mem = multigrid::Memory {
-            agg: &a.scratch_b[..n],
+            agg: live(a.scratch_b, n)?,
             index: a.scratch_a,
-            blocks: bytemuck::cast_slice_mut(&mut a.precond[..]),
+            blocks: bytemuck::cast_slice_mut(&mut *a.precond),
             dense: bytemuck::cast_slice_mut(dense),
             vectors,
         };
         let options = multigrid::Options::default();
         if let Ok(mut mg) = multigrid::Multigrid::new(mem, op, filter, options) {
             let work = pcg::Work {
-                r: &mut a.w_r[..n],
-                c: &mut a.w_c[..n],
-                q: &mut a.w_q[..n],
-                s: &mut a.w_s[..n],
+                r: live_mut(a.w_r, n)?,
+                c: live_mut(a.w_c, n)?,
+                q: live_mut(a.w_q, n)?,
+                s: live_mut(a.w_s, n)?,
             };
             result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
         }
@@ -114,21 +115,21 @@ pub(crate) fn solve(
             // Block Jacobi: the design's named solver, and the fallback should the multilevel
             // cycle ever break down (not positive); it restarts from the partial iterate,
             // whose constrained components the solve has kept.
-            for (p, d) in a.precond[..n].iter_mut().zip(&a.k_diag[..n]) {
+            for (p, d) in live_mut(a.precond, n)?.iter_mut().zip(op.diag) {
                 *p = pcg::invert_block(*d);
             }
             let work = pcg::Work {
-                r: &mut a.w_r[..n],
-                c: &mut a.w_c[..n],
-                q: &mut a.w_q[..n],
-                s: &mut a.w_s[..n],
+                r: live_mut(a.w_r, n)?,
+                c: live_mut(a.w_c, n)?,
+                q: live_mut(a.w_q, n)?,
+                s: live_mut(a.w_s, n)?,
             };
-            pcg::solve(&op, &a.precond[..n], filter, rhs, dv, &settings, work)
+            pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &settings, work)
                 .map_err(|_| StepError::SolverBreakdown)?
         }
     };
     if constrained {
-        op.mul(dv, &mut a.w_q[..n])
+        op.mul(dv, live_mut(a.w_q, n)?)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
     Ok(stats)

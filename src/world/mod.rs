@@ -155,6 +155,36 @@ fn check_vertex_input(input: &Strided<'_, 3>, n: usize) -> Result<(), EditError>
     Ok(())
 }
 
+/// The live prefix `..n` of one of the world's capacity-long arrays, at init. The counts never
+/// exceed the capacity (checked first thing in [`World::new_strided`]), so the error cannot
+/// happen; it stands in for the index that is not made.
+fn live<T>(array: &[T], n: usize) -> Result<&[T], InitError> {
+    array.get(..n).ok_or(InitError::Internal)
+}
+
+/// [`live`] for an array init writes.
+fn live_mut<T>(array: &mut [T], n: usize) -> Result<&mut [T], InitError> {
+    array.get_mut(..n).ok_or(InitError::Internal)
+}
+
+/// The live prefix `..n` for an accessor or an infallible helper: empty should `n` exceed the
+/// array, which a world's counts never do.
+fn prefix<T>(array: &[T], n: usize) -> &[T] {
+    array.get(..n).unwrap_or_default()
+}
+
+/// [`prefix`] for an array that is written.
+fn prefix_mut<T>(array: &mut [T], n: usize) -> &mut [T] {
+    array.get_mut(..n).unwrap_or_default()
+}
+
+/// `to[..n] = from[..n]` (nothing, should `n` exceed either array, which it never does).
+fn copy_live<T: Copy>(to: &mut [T], from: &[T], n: usize) {
+    if let (Some(to), Some(from)) = (to.get_mut(..n), from.get(..n)) {
+        to.copy_from_slice(from);
+    }
+}
+
 /// A coarse cloth and everything needed to step it, living in a caller-owned block.
 pub struct World<'a> {
     a: Arrays<'a>,
@@ -264,7 +294,7 @@ impl<'a> World<'a> {
             &cloth.positions,
             &cloth.uvs,
             cloth.triangles,
-            &mut a.tri_sign[..nt],
+            live_mut(a.tri_sign, nt)?,
         )?;
         // Materials: every triangle's must exist and be usable.
         for t in 0..nt {
@@ -282,21 +312,23 @@ impl<'a> World<'a> {
                 return Err(InitError::InvalidMaterial { material: m });
             }
         }
-        a.triangles[..nt].copy_from_slice(cloth.triangles);
-        for (t, m) in a.tri_material[..nt].iter_mut().enumerate() {
+        // (`nt` is `cloth.triangles.len()`)
+        live_mut(a.triangles, nt)?.copy_from_slice(cloth.triangles);
+        for (t, m) in live_mut(a.tri_material, nt)?.iter_mut().enumerate() {
             *m = cloth.materials.get(t).ok_or(InitError::MaterialCount)?;
         }
-        for i in 0..n {
+        let placed = live_mut(a.x, n)?.iter_mut().zip(live_mut(a.rest, n)?);
+        for (i, (x, rest)) in placed.enumerate() {
             let p = cloth.positions.get(i).ok_or(InitError::Internal)?;
             let uv = cloth.uvs.get(i).ok_or(InitError::Internal)?;
-            a.x[i] = Vec3A::from(p);
-            a.rest[i] = Vec3A::new(uv[0], uv[1], 0.0);
+            *x = Vec3A::from(p);
+            *rest = Vec3A::new(uv[0], uv[1], 0.0);
         }
         // Edges, hinges and the block couplings are needed only here, before the stiffness
         // blocks are first assembled: they borrow the blocks' bytes (2E blocks of 48 bytes hold
         // E edges, E edge-triangle pairs, E hinges and 2E couplings with room to spare).
         let e_cap = self.capacity.e();
-        let scratch: &mut [u8] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let scratch: &mut [u8] = bytemuck::cast_slice_mut(&mut *a.k_off);
         let (edges, scratch) = scratch.split_at_mut(8 * e_cap);
         let (edge_tris, scratch) = scratch.split_at_mut(8 * e_cap);
         let (hinges, scratch) = scratch.split_at_mut(16 * e_cap);
@@ -307,8 +339,8 @@ impl<'a> World<'a> {
         let couplings: &mut [[u32; 2]] = bytemuck::cast_slice_mut(couplings);
         let counts = mesh::build(
             n,
-            &a.triangles[..nt],
-            &a.tri_sign[..nt],
+            live(a.triangles, nt)?,
+            live(a.tri_sign, nt)?,
             &mut Topology {
                 vt_start: a.vt_start,
                 vt: a.vt,
@@ -323,9 +355,10 @@ impl<'a> World<'a> {
         )?;
         self.ne = counts.edges;
         self.nh = counts.hinges;
-        let nc = mesh::couplings(&edges[..self.ne], &hinges[..self.nh], couplings)?;
+        let hinges = live(hinges, self.nh)?;
+        let nc = mesh::couplings(live(edges, self.ne)?, hinges, couplings)?;
         self.nnz =
-            sparse::build_pattern(n, &couplings[..nc], a.row_start, a.cols).map_err(|_| {
+            sparse::build_pattern(n, live(couplings, nc)?, a.row_start, a.cols).map_err(|_| {
                 InitError::EdgeCapacity {
                     capacity: self.capacity.edges,
                 }
@@ -334,28 +367,37 @@ impl<'a> World<'a> {
         // Element stiffness K_e = A Bᵀ C^H B (Eq. 10–11 on the coarse mesh with the cell's C^H),
         // lumped masses, and each element's place in the block pattern.
         let pattern = Pattern {
-            row_start: &a.row_start[..n + 1],
-            cols: &a.cols[..self.nnz],
+            row_start: live(a.row_start, n + 1)?,
+            cols: live(a.cols, self.nnz)?,
         };
+        let (triangles, tri_material) = (live(a.triangles, nt)?, live(a.tri_material, nt)?);
+        let rest = live(a.rest, n)?;
+        // the (u, v) of vertices `ids` (validated above: every vertex of a triangle is < n)
+        fn uvs<const K: usize>(rest: &[Vec3A], ids: [u32; K]) -> Result<[[f64; 2]; K], InitError> {
+            let mut uv = [[0.0; 2]; K];
+            for (uv, &i) in uv.iter_mut().zip(&ids) {
+                let r = rest.get(i as usize).ok_or(InitError::Internal)?;
+                *uv = [r.x as f64, r.y as f64];
+            }
+            Ok(uv)
+        }
+        let (mass, area) = (live_mut(a.mass, n)?, live_mut(a.area, n)?);
+        let per_triangle = triangles
+            .iter()
+            .zip(tri_material)
+            .zip(live_mut(a.elements, nt)?.iter_mut())
+            .zip(live_mut(a.slots, nt)?.iter_mut());
         let mut total_mass = 0.0f64;
-        for t in 0..nt {
-            let tri = a.triangles[t];
-            let mat = materials
-                .get(a.tri_material[t])
-                .ok_or(InitError::Internal)?;
-            let uv = tri.map(|i| {
-                let r = a.rest[i as usize];
-                [r.x as f64, r.y as f64]
-            });
+        for (t, (((&tri, &material), element), slots)) in per_triangle.enumerate() {
+            let mat = materials.get(material).ok_or(InitError::Internal)?;
+            let uv = uvs(rest, tri)?;
             let degenerate = InitError::Mesh(MeshError::DegenerateUv { triangle: t as u32 });
             let g = membrane::gradients(uv).ok_or(degenerate)?;
-            a.elements[t] = Element::new(uv, &mat.stiffness).ok_or(degenerate)?;
+            *element = Element::new(uv, &mat.stiffness).ok_or(degenerate)?;
             // Stiffness, lumped area and mass are f32: a value beyond its range is refused here
             // rather than becoming an infinite (or zero) mass or force.
-            let e = &a.elements[t];
-            let bad_material = InitError::InvalidMaterial {
-                material: a.tri_material[t],
-            };
+            let e = &*element;
+            let bad_material = InitError::InvalidMaterial { material };
             let bad_uv = InitError::Mesh(MeshError::UvOutOfRange { triangle: t as u32 });
             if !e.c.iter().all(|v| v.is_finite()) {
                 return Err(bad_material);
@@ -371,32 +413,43 @@ impl<'a> World<'a> {
             }
             for &i in &tri {
                 let i = i as usize;
-                a.mass[i] += m as f32;
-                a.area[i] += area3 as f32;
+                let (Some(mass_i), Some(area_i)) = (mass.get_mut(i), area.get_mut(i)) else {
+                    return Err(InitError::Internal); // validated: < n
+                };
+                *mass_i += m as f32;
+                *area_i += area3 as f32;
                 total_mass += m;
-                if !a.area[i].is_finite() {
+                if !area_i.is_finite() {
                     return Err(bad_uv);
                 }
-                if !a.mass[i].is_finite() {
+                if !mass_i.is_finite() {
                     return Err(bad_material);
                 }
             }
-            for (p, (ai, bi)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
-                let (i, j) = (tri[ai] as usize, tri[bi] as usize);
+            let pairs = [(tri[0], tri[1]), (tri[0], tri[2]), (tri[1], tri[2])];
+            for (slot, (i, j)) in slots.iter_mut().zip(pairs) {
+                let (i, j) = (i as usize, j as usize);
                 let (lo, hi, flag) = if i < j {
                     (i, j, 0)
                 } else {
                     (j, i, membrane::TRANSPOSED)
                 };
                 let k = pattern.find(lo, hi).ok_or(InitError::Internal)?;
-                a.slots[t][p] = k as u32 | flag;
+                *slot = k as u32 | flag;
             }
         }
         self.total_mass = total_mass;
 
         // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
         // stiffness of its two triangles.
-        for &hinge in &hinges[..self.nh] {
+        let (q_diag, q_off) = (live_mut(a.q_diag, n)?, live_mut(a.q_off, self.nnz)?);
+        let bending_of = |t: usize| {
+            tri_material
+                .get(t)
+                .and_then(|&m| materials.get(m))
+                .map(|m| m.bending)
+        };
+        for &hinge in hinges {
             let t0 = triangle_of(
                 a.vt_start,
                 a.vt,
@@ -411,36 +464,20 @@ impl<'a> World<'a> {
                 [hinge[0], hinge[1], hinge[3]],
             )
             .ok_or(InitError::Internal)?;
-            let b0 = materials
-                .get(a.tri_material[t0])
-                .map(|m| m.bending)
-                .unwrap_or(0.0);
-            let b1 = materials
-                .get(a.tri_material[t1])
-                .map(|m| m.bending)
-                .unwrap_or(0.0);
-            let uv = hinge.map(|i| {
-                let r = a.rest[i as usize];
-                [r.x as f64, r.y as f64]
-            });
+            let b0 = bending_of(t0).unwrap_or(0.0);
+            let b1 = bending_of(t1).unwrap_or(0.0);
+            let uv = uvs(rest, hinge)?;
             let Some(q) = bending::hinge_hessian(uv, bending::CONTINUUM_SCALE * 0.5 * (b0 + b1))
             else {
                 continue; // a degenerate hinge bends freely rather than blowing up
             };
-            for (ai, &i) in hinge.iter().enumerate() {
-                for (bi, &j) in hinge.iter().enumerate() {
+            for (&i, qa) in hinge.iter().zip(&q) {
+                for (&j, &qab) in hinge.iter().zip(qa) {
                     if i > j {
                         continue;
                     }
-                    sparse::add_scalar(
-                        &pattern,
-                        &mut a.q_diag[..n],
-                        &mut a.q_off[..self.nnz],
-                        i as usize,
-                        j as usize,
-                        q[ai][bi] as f32,
-                    )
-                    .map_err(|_| InitError::Internal)?;
+                    sparse::add_scalar(&pattern, q_diag, q_off, i as usize, j as usize, qab as f32)
+                        .map_err(|_| InitError::Internal)?;
                 }
             }
         }
@@ -450,17 +487,17 @@ impl<'a> World<'a> {
         // small: far more isolated vertices than edges) steps with block Jacobi: its index
         // then holds no hierarchy and `Multigrid::new` refuses it.
         let a = &mut self.a;
-        let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut a.k_off[..]);
+        let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut *a.k_off);
         let built = multigrid::build(
             &Pattern {
-                row_start: &a.row_start[..n + 1],
-                cols: &a.cols[..self.nnz],
+                row_start: live(a.row_start, n + 1)?,
+                cols: live(a.cols, self.nnz)?,
             },
             Some(multigrid::Graph {
-                start: &a.ring_start[..n + 1],
-                adjacency: &a.ring[..2 * self.ne],
+                start: live(a.ring_start, n + 1)?,
+                adjacency: live(a.ring, 2 * self.ne)?,
             }),
-            &mut a.scratch_b[..n],
+            live_mut(a.scratch_b, n)?,
             a.scratch_a,
             scratch,
         );
@@ -490,22 +527,22 @@ impl<'a> World<'a> {
         self.capacity
     }
     pub fn positions(&self) -> &[Vec3A] {
-        &self.a.x[..self.n]
+        prefix(self.a.x, self.n)
     }
     pub fn velocities(&self) -> &[Vec3A] {
-        &self.a.v[..self.n]
+        prefix(self.a.v, self.n)
     }
     pub fn masses(&self) -> &[f32] {
-        &self.a.mass[..self.n]
+        prefix(self.a.mass, self.n)
     }
     pub fn rest_positions(&self) -> &[Vec3A] {
-        &self.a.rest[..self.n]
+        prefix(self.a.rest, self.n)
     }
     pub fn triangles(&self) -> &[[u32; 3]] {
-        &self.a.triangles[..self.nt]
+        prefix(self.a.triangles, self.nt)
     }
     pub fn triangle_materials(&self) -> &[u32] {
-        &self.a.tri_material[..self.nt]
+        prefix(self.a.tri_material, self.nt)
     }
     /// Triangles incident to vertex `v` (empty for an out-of-range index).
     pub fn incident_triangles(&self, v: usize) -> &[u32] {
@@ -518,10 +555,10 @@ impl<'a> World<'a> {
     /// Per-vertex rotations of the per-node warping mode (identity otherwise).
     #[cfg(feature = "research")]
     pub fn rotations(&self) -> &[Quat] {
-        &self.a.rot[..self.n]
+        prefix(self.a.rot, self.n)
     }
     pub fn normals(&self) -> &[Vec3A] {
-        &self.a.normals[..self.n]
+        prefix(self.a.normals, self.n)
     }
     pub fn settings(&self) -> &Settings {
         &self.settings
@@ -576,7 +613,7 @@ impl<'a> World<'a> {
     /// [`World::set_positions`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_positions_strided(&mut self, positions: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(positions, self.n)?;
-        for (i, x) in self.a.x[..self.n].iter_mut().enumerate() {
+        for (i, x) in prefix_mut(self.a.x, self.n).iter_mut().enumerate() {
             *x = Vec3A::from(positions.get(i).ok_or(EditError::VertexOutOfRange)?);
         }
         self.wake();
@@ -592,10 +629,10 @@ impl<'a> World<'a> {
     /// [`World::set_velocities`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_velocities_strided(&mut self, velocities: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(velocities, self.n)?;
-        for (i, v) in self.a.v[..self.n].iter_mut().enumerate() {
+        for (i, v) in prefix_mut(self.a.v, self.n).iter_mut().enumerate() {
             *v = Vec3A::from(velocities.get(i).ok_or(EditError::VertexOutOfRange)?);
         }
-        self.a.dv[..self.n].fill(Vec3A::ZERO);
+        prefix_mut(self.a.dv, self.n).fill(Vec3A::ZERO);
         self.wake();
         Ok(())
     }
@@ -612,9 +649,13 @@ impl<'a> World<'a> {
             return Err(EditError::VertexOutOfRange);
         }
         let target = Vec3A::from(target);
-        let p = self.a.pin_of[vi];
+        // (`pin_of` and `x` are capacity-long, and a pin index is below the pin count: the
+        // `VertexOutOfRange` and `PinCapacity` below cannot happen)
+        let p = *self.a.pin_of.get(vi).ok_or(EditError::VertexOutOfRange)?;
         if p != mesh::NONE {
-            let slot = &mut self.a.pin_target[p as usize];
+            let slot = prefix_mut(self.a.pin_target, self.pins)
+                .get_mut(p as usize)
+                .ok_or(EditError::PinCapacity)?;
             if *slot != target {
                 *slot = target;
                 self.wake();
@@ -625,11 +666,22 @@ impl<'a> World<'a> {
             return Err(EditError::PinCapacity);
         }
         let p = self.pins;
-        self.a.pin_vertex[p] = vertex;
-        self.a.pin_target[p] = target;
+        let a = &mut self.a;
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+            a.pin_vertex.get_mut(p),
+            a.pin_target.get_mut(p),
+            a.pin_previous.get_mut(p),
+        ) else {
+            return Err(EditError::PinCapacity);
+        };
+        let (Some(&x), Some(pin_of)) = (a.x.get(vi), a.pin_of.get_mut(vi)) else {
+            return Err(EditError::VertexOutOfRange);
+        };
+        *pin_vertex = vertex;
+        *pin_target = target;
         // A new pin starts where the vertex is, so it is not yanked in one substep.
-        self.a.pin_previous[p] = self.a.x[vi];
-        self.a.pin_of[vi] = p as u32;
+        *pin_previous = x;
+        *pin_of = p as u32;
         self.pins += 1;
         self.wake();
         Ok(())
@@ -641,18 +693,42 @@ impl<'a> World<'a> {
         if vi >= self.n {
             return Err(EditError::VertexOutOfRange);
         }
-        let p = self.a.pin_of[vi];
+        // (as in `set_pin`, the errors below cannot happen; nothing is written before them)
+        let p = *self.a.pin_of.get(vi).ok_or(EditError::VertexOutOfRange)?;
         if p == mesh::NONE {
             return Ok(());
         }
         // Swap-remove, keeping pin_of consistent.
         let last = self.pins - 1;
         let p = p as usize;
-        self.a.pin_vertex[p] = self.a.pin_vertex[last];
-        self.a.pin_target[p] = self.a.pin_target[last];
-        self.a.pin_previous[p] = self.a.pin_previous[last];
-        self.a.pin_of[self.a.pin_vertex[p] as usize] = p as u32;
-        self.a.pin_of[vi] = mesh::NONE;
+        let a = &mut self.a;
+        let (Some(&last_vertex), Some(&last_target), Some(&last_previous)) = (
+            a.pin_vertex.get(last),
+            a.pin_target.get(last),
+            a.pin_previous.get(last),
+        ) else {
+            return Err(EditError::PinCapacity);
+        };
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+            a.pin_vertex.get_mut(p),
+            a.pin_target.get_mut(p),
+            a.pin_previous.get_mut(p),
+        ) else {
+            return Err(EditError::PinCapacity);
+        };
+        if a.pin_of.get(last_vertex as usize).is_none() {
+            return Err(EditError::VertexOutOfRange);
+        }
+        *pin_vertex = last_vertex;
+        *pin_target = last_target;
+        *pin_previous = last_previous;
+        // (in this order: when `p` is the last pin, `last_vertex` is `vertex`)
+        if let Some(moved) = a.pin_of.get_mut(last_vertex as usize) {
+            *moved = p as u32;
+        }
+        if let Some(removed) = a.pin_of.get_mut(vi) {
+            *removed = mesh::NONE;
+        }
         self.pins = last;
         self.wake();
         Ok(())
@@ -672,7 +748,12 @@ impl<'a> World<'a> {
         if self.colliders >= self.capacity.c() {
             return Err(EditError::ColliderCapacity);
         }
-        self.a.colliders[self.colliders] = collider;
+        let slot = self
+            .a
+            .colliders
+            .get_mut(self.colliders)
+            .ok_or(EditError::ColliderCapacity)?;
+        *slot = collider;
         self.colliders += 1;
         self.wake();
         Ok(self.colliders as u32 - 1)
@@ -697,7 +778,7 @@ impl<'a> World<'a> {
     }
 
     pub fn collider(&self, index: u32) -> Option<&Collider> {
-        self.a.colliders[..self.colliders].get(index as usize)
+        prefix(self.a.colliders, self.colliders).get(index as usize)
     }
 
     pub fn collider_count(&self) -> usize {
@@ -707,7 +788,7 @@ impl<'a> World<'a> {
     /// Removes all colliders.
     pub fn clear_colliders(&mut self) {
         self.colliders = 0;
-        self.a.contact[..self.n].fill(mesh::NONE);
+        prefix_mut(self.a.contact, self.n).fill(mesh::NONE);
         self.wake();
     }
 
@@ -731,11 +812,12 @@ impl<'a> World<'a> {
         let eff = self.settings.effects;
         let pins_on = eff & effects::PINS != 0;
         if pins_on {
-            for p in 0..self.pins {
-                if !self.a.pin_target[p].is_finite() {
-                    return Err(StepError::NonFinitePin {
-                        vertex: self.a.pin_vertex[p],
-                    });
+            let pins = step::live(self.a.pin_target, self.pins)?
+                .iter()
+                .zip(step::live(self.a.pin_vertex, self.pins)?);
+            for (target, &vertex) in pins {
+                if !target.is_finite() {
+                    return Err(StepError::NonFinitePin { vertex });
                 }
             }
         }
@@ -748,28 +830,58 @@ impl<'a> World<'a> {
             return Ok(self.last);
         }
         let n = self.n;
-        self.a.x_start[..n].copy_from_slice(&self.a.x[..n]);
-        self.a.v_start[..n].copy_from_slice(&self.a.v[..n]);
-        self.a.dv_start[..n].copy_from_slice(&self.a.dv[..n]);
-        self.a.contact_start[..n].copy_from_slice(&self.a.contact[..n]);
+        copy_live(self.a.x_start, self.a.x, n);
+        copy_live(self.a.v_start, self.a.v, n);
+        copy_live(self.a.dv_start, self.a.dv, n);
+        copy_live(self.a.contact_start, self.a.contact, n);
         let counts = self.counts();
         let start = match self.level {
             Some(level) => level,
-            None => monitor::level(&self.a, &counts, &self.settings),
+            None => monitor::level(&self.a, &counts, &self.settings)?,
         };
+        let stats = match self.attempts(dt, start, pins_on) {
+            Ok(stats) => stats,
+            Err(e) => {
+                self.restore_start();
+                return Err(e);
+            }
+        };
+        // The sweep of colliders and pins ends where the engine put them.
+        for c in prefix_mut(self.a.colliders, self.colliders) {
+            c.previous = c.shape;
+        }
+        copy_live(self.a.pin_previous, self.a.pin_target, self.pins);
+        if eff & effects::SLEEP != 0 {
+            let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
+            let v = prefix_mut(self.a.v, n);
+            let calm = v.iter().all(|v| v.length_squared() <= limit);
+            self.calm_frames = if calm { self.calm_frames + 1 } else { 0 };
+            if self.calm_frames >= self.settings.sleep_frames.max(1) {
+                self.asleep = true;
+                v.fill(Vec3A::ZERO);
+                self.level = None;
+            }
+        }
+        self.last = stats;
+        Ok(stats)
+    }
+
+    /// The attempts at a step from the energy level `start`, redone with more substeps while
+    /// they gain energy (see [`World::step_dt`]). On error the caller restores the start.
+    fn attempts(
+        &mut self,
+        dt: f32,
+        start: monitor::Level,
+        pins_on: bool,
+    ) -> Result<StepStats, StepError> {
+        let counts = self.counts();
         let mut substeps = self.settings.substeps.max(1);
         let mut redone = 0;
         let stats = loop {
-            let mut stats = match self.run_substeps(dt, substeps) {
-                Ok(stats) => stats,
-                Err(e) => {
-                    self.restore_start();
-                    return Err(e);
-                }
-            };
+            let mut stats = self.run_substeps(dt, substeps)?;
             let (input, input_noise) = self.last_input;
-            let end = monitor::level(&self.a, &counts, &self.settings);
-            let (gravity, gravity_noise) = monitor::gravity_work(&self.a, &counts, &self.settings);
+            let end = monitor::level(&self.a, &counts, &self.settings)?;
+            let (gravity, gravity_noise) = monitor::gravity_work(&self.a, &counts, &self.settings)?;
             let gain = end.energy - start.energy - gravity - input;
             let floor = start.noise + end.noise + gravity_noise + input_noise;
             stats.redone = redone;
@@ -787,36 +899,17 @@ impl<'a> World<'a> {
                 continue;
             }
             let excess = gain - floor;
-            let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess);
+            let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess)?;
             let in_play = start.energy + end.energy + gravity.abs() + input.abs();
             // (NaN counts as a blow-up too)
             let blown_up = (excess - removed <= 0.25 * in_play).not();
             if blown_up {
-                self.restore_start();
                 return Err(StepError::Unstable);
             }
             stats.energy_removed = removed as f32;
-            self.level = Some(monitor::level(&self.a, &counts, &self.settings));
+            self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
             break stats;
         };
-        // The sweep of colliders and pins ends where the engine put them.
-        for c in &mut self.a.colliders[..self.colliders] {
-            c.previous = c.shape;
-        }
-        for p in 0..self.pins {
-            self.a.pin_previous[p] = self.a.pin_target[p];
-        }
-        if eff & effects::SLEEP != 0 {
-            let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
-            let calm = self.a.v[..n].iter().all(|v| v.length_squared() <= limit);
-            self.calm_frames = if calm { self.calm_frames + 1 } else { 0 };
-            if self.calm_frames >= self.settings.sleep_frames.max(1) {
-                self.asleep = true;
-                self.a.v[..n].fill(Vec3A::ZERO);
-                self.level = None;
-            }
-        }
-        self.last = stats;
         Ok(stats)
     }
 
@@ -853,14 +946,15 @@ impl<'a> World<'a> {
     /// Puts back the state saved at the start of the step.
     fn restore_start(&mut self) {
         let n = self.n;
-        self.a.x[..n].copy_from_slice(&self.a.x_start[..n]);
-        self.a.v[..n].copy_from_slice(&self.a.v_start[..n]);
-        self.a.dv[..n].copy_from_slice(&self.a.dv_start[..n]);
-        self.a.contact[..n].copy_from_slice(&self.a.contact_start[..n]);
+        copy_live(self.a.x, self.a.x_start, n);
+        copy_live(self.a.v, self.a.v_start, n);
+        copy_live(self.a.dv, self.a.dv_start, n);
+        copy_live(self.a.contact, self.a.contact_start, n);
         // A failed solve's Δv (maybe huge or NaN) must not warm-start the next step, or one
         // bad input breaks every later solve.
-        if !self.a.dv[..n].iter().all(|d| d.is_finite()) {
-            self.a.dv[..n].fill(Vec3A::ZERO);
+        let dv = prefix_mut(self.a.dv, n);
+        if !dv.iter().all(|d| d.is_finite()) {
+            dv.fill(Vec3A::ZERO);
         }
         // Normals (and rotations) are warm starts; re-derive them from the restored state.
         self.refresh_frames(8);
@@ -886,27 +980,27 @@ impl<'a> World<'a> {
         let eff = self.settings.effects;
         let a = &self.a;
         let elastic = membrane::elastic_energy(
-            &a.triangles[..self.nt],
-            &a.elements[..self.nt],
-            &a.x[..n],
+            prefix(a.triangles, self.nt),
+            prefix(a.elements, self.nt),
+            prefix(a.x, n),
             step::forces::membrane_strain(eff & effects::WARPING != 0),
         )
         .unwrap_or(0.0);
         let bending = if eff & effects::BENDING != 0 {
             let pattern = Pattern {
-                row_start: &a.row_start[..n + 1],
-                cols: &a.cols[..self.nnz],
+                row_start: prefix(a.row_start, n + 1),
+                cols: prefix(a.cols, self.nnz),
             };
-            bending::energy(&pattern, &a.q_off[..self.nnz], &a.x[..n])
+            bending::energy(&pattern, prefix(a.q_off, self.nnz), prefix(a.x, n))
         } else {
             0.0
         };
-        let kinetic = monitor::kinetic(&a.mass[..n], &a.v[..n]);
+        let kinetic = monitor::kinetic(prefix(a.mass, n), prefix(a.v, n));
         let gravity = if eff & effects::GRAVITY != 0 {
             let g = Vec3A::from(self.settings.gravity);
-            -a.mass[..n]
+            -prefix(a.mass, n)
                 .iter()
-                .zip(&a.x[..n])
+                .zip(prefix(a.x, n))
                 .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
                 .sum::<f64>()
         } else {
@@ -934,14 +1028,14 @@ impl<'a> World<'a> {
         // Only fails on inconsistent lengths, which the world never has; the previous
         // normals then stay, which is what a normal's fallback is anyway.
         if normals::vertex_normals(
-            &a.triangles[..self.nt],
-            &a.tri_sign[..self.nt],
-            &a.x[..n],
-            &mut a.normals[..n],
+            prefix(a.triangles, self.nt),
+            prefix(a.tri_sign, self.nt),
+            prefix(a.x, n),
+            prefix_mut(a.normals, n),
         )
         .is_err()
         {
-            a.normals[..n].fill(normals::REST_NORMAL);
+            prefix_mut(a.normals, n).fill(normals::REST_NORMAL);
         }
     }
 
@@ -957,21 +1051,25 @@ impl<'a> World<'a> {
         let per_node = warping && self.settings.per_node_warping;
         let a = &mut self.a;
         let ok = membrane::assemble(
-            &a.triangles[..self.nt],
-            &a.elements[..self.nt],
-            &a.slots[..self.nt],
-            &a.x[..n],
+            prefix(a.triangles, self.nt),
+            prefix(a.elements, self.nt),
+            prefix(a.slots, self.nt),
+            prefix(a.x, n),
             step::forces::membrane_strain(warping && !per_node),
-            &mut a.k_diag[..n],
-            &mut a.k_off[..self.nnz],
-            &mut out[..n],
+            prefix_mut(a.k_diag, n),
+            prefix_mut(a.k_off, self.nnz),
+            prefix_mut(out, n),
         )
         .is_ok();
         #[cfg(feature = "research")]
         if ok && per_node {
             let counts = self.counts();
-            return crate::research::per_node::warped_force(&mut self.a, &counts, &mut out[..n])
-                .is_ok();
+            return crate::research::per_node::warped_force(
+                &mut self.a,
+                &counts,
+                prefix_mut(out, n),
+            )
+            .is_ok();
         }
         ok
     }

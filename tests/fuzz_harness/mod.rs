@@ -676,7 +676,7 @@ pub fn world(data: &[u8]) -> Result<(), InitError> {
                 } else {
                     w.velocities().iter().map(|p| p.to_array()).collect()
                 };
-                if input.byte() % 8 == 0 {
+                if input.byte().is_multiple_of(8) {
                     values.pop();
                 }
                 for _ in 0..input.byte() % 3 {
@@ -704,7 +704,7 @@ pub fn world(data: &[u8]) -> Result<(), InitError> {
                 }
             }
             10 => {
-                let short = input.byte() % 4 == 0;
+                let short = input.byte().is_multiple_of(4);
                 let mut out = vec![glam::Vec3A::ZERO; n.saturating_sub(usize::from(short))];
                 let ok = w.elastic_forces(&mut out);
                 if short && n > 0 {

@@ -615,7 +615,7 @@ fn run(args: &Args) -> Result<(), String> {
 fn knob_list(preset: &Preset, case: &Case) -> Vec<Knobs> {
     let mut out = Vec::new();
     for &res in &preset.resolutions {
-        if case.tiles % res != 0 || case.tiles / res < 1 {
+        if !case.tiles.is_multiple_of(res) || case.tiles / res < 1 {
             continue;
         }
         for averaged in [false, true] {
