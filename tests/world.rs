@@ -1111,3 +1111,48 @@ fn a_stiff_sheet_released_from_two_corners_never_gains_energy() {
         before = now;
     }
 }
+
+/// A 10 cm sphere at 50 m/s that stops 0.3 m in front of a hanging cloth never touches it, so
+/// it must not push it (the contact test used to look a substep ahead along the collider's
+/// velocity and launched the cloth at 32 m/s).
+#[test]
+fn a_fast_collider_that_stops_short_pushes_nothing() {
+    let mats = [anisotropic()];
+    let mut sheet = Sheet::grid(11, 11, 0.5, 0.5);
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    for i in [sheet.index(0, 10), sheet.index(10, 10)] {
+        w.set_pin(i, sheet.positions[i as usize]).unwrap();
+    }
+    for _ in 0..120 {
+        w.step().unwrap();
+    }
+    let centre = w.positions()[sheet.index(5, 5) as usize];
+    let at = |y: f32| Shape::Sphere {
+        center: Vec3A::new(centre.x, y, centre.z),
+        radius: 0.1,
+    };
+    let start = centre.y - 0.3 - 50.0 / 60.0;
+    w.add_collider(Collider::new(at(start), 0.3, 0.005))
+        .unwrap();
+    w.step().unwrap();
+    let calm = w
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max);
+    // one frame at 50 m/s, stopping 0.3 m in front of the cloth
+    w.set_collider_shape(0, at(centre.y - 0.3)).unwrap();
+    w.step().unwrap();
+    w.step().unwrap();
+    let fastest = w
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max);
+    assert!(
+        fastest < calm + 0.05,
+        "a collider that never touched the cloth moved it at {fastest} m/s (at rest: {calm})"
+    );
+}

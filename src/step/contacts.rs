@@ -77,10 +77,13 @@ pub(crate) fn constrain(
             for (k, col) in colliders.iter().enumerate() {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
-                let prox = shape.proximity(xi);
+                // Where the collider is at the start of the substep, and the vertex's motion
+                // relative to its surface over the substep: the predicted distance at the end
+                // (a linear sweep of both, so a fast collider neither tunnels nor pushes what
+                // it does not reach within the substep).
+                let prox = before.proximity(xi);
                 let vs = shape.surface_velocity(&before, xi, h);
                 let vn_rel = (vi - vs).dot(prox.normal);
-                // predicted distance at the end of the substep
                 let predicted = prox.distance + h * vn_rel;
                 if predicted < col.thickness + slop(col.thickness)
                     && prox.distance - col.thickness < deepest
