@@ -1156,3 +1156,78 @@ fn a_fast_collider_that_stops_short_pushes_nothing() {
         "a collider that never touched the cloth moved it at {fastest} m/s (at rest: {calm})"
     );
 }
+
+/// Pins pulled far (two corners of a hanging cloth pulled apart to 4× its width, then a pin
+/// teleported 1 m): the cloth must settle rather than flip its compressed elements every step
+/// in a period-2 cycle.
+#[test]
+fn pins_moved_far_settle() {
+    let mats = [anisotropic()];
+    let mut sheet = Sheet::grid(15, 15, 0.5, 0.5);
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    let (a, b) = (sheet.index(0, 14), sheet.index(14, 14));
+    let (pa, pb) = (sheet.positions[a as usize], sheet.positions[b as usize]);
+    w.set_pin(a, pa).unwrap();
+    w.set_pin(b, pb).unwrap();
+    // pulled apart over one second to 4× the width
+    for step in 0..60 {
+        let s = (step + 1) as f32 / 60.0 * 0.75;
+        w.set_pin(a, [pa[0] - s, pa[1], pa[2]]).unwrap();
+        w.set_pin(b, [pb[0] + s, pb[1], pb[2]]).unwrap();
+        w.step()
+            .unwrap_or_else(|e| panic!("pull, step {step}: {e:?}"));
+    }
+    // one pin teleported 1 m
+    w.set_pin(a, [pa[0] - 0.75, pa[1] + 1.0, pa[2]]).unwrap();
+    let mut slowest_tail = 0.0f32;
+    for step in 0..900 {
+        w.step()
+            .unwrap_or_else(|e| panic!("settle, step {step}: {e:?}"));
+        if step >= 840 {
+            let fastest = w
+                .velocities()
+                .iter()
+                .map(|v| v.length())
+                .fold(0.0, f32::max);
+            slowest_tail = slowest_tail.max(fastest);
+        }
+    }
+    assert!(
+        slowest_tail < 0.05,
+        "still moving at {slowest_tail} m/s after 15 s"
+    );
+}
+
+/// A very soft, heavy fabric (10 N/m, 1 kg/m²) hanging from two corners is stretched hard and
+/// compressed sideways next to its pins; its elements must not flip back and forth every step
+/// (a period-2 cycle at ~1 m/s kept the corotated cloth from ever resting).
+#[test]
+fn a_soft_heavy_cloth_hanging_from_two_corners_rests() {
+    let mats = [Material {
+        stiffness: weft::membrane::isotropic(10.0, 0.3),
+        density: 1.0,
+        bending: 1e-5,
+    }];
+    let mut sheet = Sheet::grid(15, 15, 0.5, 0.5);
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    for i in [sheet.index(0, 14), sheet.index(14, 14)] {
+        w.set_pin(i, sheet.positions[i as usize]).unwrap();
+    }
+    let mut tail = 0.0f32;
+    for step in 0..1200 {
+        w.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
+        if step >= 1140 {
+            tail = tail.max(
+                w.velocities()
+                    .iter()
+                    .map(|v| v.length())
+                    .fold(0.0, f32::max),
+            );
+        }
+    }
+    assert!(tail < 0.05, "still moving at {tail} m/s after 20 s");
+}
