@@ -72,6 +72,60 @@ pub enum MeshError {
     },
 }
 
+impl core::fmt::Display for MeshError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            MeshError::Empty => f.write_str("no vertices or no triangles"),
+            MeshError::VertexCapacity { needed, capacity } => {
+                write!(f, "{needed} vertices exceed the capacity of {capacity}")
+            }
+            MeshError::TriangleCapacity { needed, capacity } => {
+                write!(f, "{needed} triangles exceed the capacity of {capacity}")
+            }
+            MeshError::EdgeCapacity { capacity } => {
+                write!(f, "more edges than the capacity of {capacity}")
+            }
+            MeshError::IndexOutOfRange { triangle } => {
+                write!(f, "triangle {triangle} names a vertex that does not exist")
+            }
+            MeshError::RepeatedVertex { triangle } => {
+                write!(f, "triangle {triangle} uses a vertex twice")
+            }
+            MeshError::DegenerateUv { triangle } => {
+                write!(f, "triangle {triangle} has (near) zero area in (u, v)")
+            }
+            MeshError::Degenerate3d { triangle } => {
+                write!(
+                    f,
+                    "triangle {triangle} has (near) zero area in its initial placement"
+                )
+            }
+            MeshError::NonManifoldEdge { a, b } => {
+                write!(f, "edge {a}-{b} is shared by more than two triangles")
+            }
+            MeshError::NonFinite { vertex } => {
+                write!(
+                    f,
+                    "vertex {vertex} has a NaN or infinite position or (u, v)"
+                )
+            }
+            MeshError::FoldedUv { a, b } => {
+                write!(
+                    f,
+                    "the triangles on edge {a}-{b} disagree on orientation in (u, v)"
+                )
+            }
+            MeshError::BufferTooSmall => f.write_str("a buffer is shorter than the counts need"),
+            MeshError::UnusedVertex { vertex } => {
+                write!(f, "vertex {vertex} belongs to no triangle")
+            }
+            MeshError::UvOutOfRange { triangle } => {
+                write!(f, "triangle {triangle}'s (u, v) area is beyond f32")
+            }
+        }
+    }
+}
+
 /// Relative area below which a 3D triangle is degenerate (area / longest edge²).
 pub const DEGENERATE_3D_RATIO: f32 = 1e-7;
 

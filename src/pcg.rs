@@ -163,6 +163,16 @@ pub enum PcgError {
     Breakdown,
 }
 
+impl core::fmt::Display for PcgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            PcgError::LengthMismatch => "slice lengths disagree",
+            PcgError::NonFinite => "a NaN or infinite input",
+            PcgError::Breakdown => "the operator or preconditioner is not positive definite",
+        })
+    }
+}
+
 /// Scratch vectors, each at least `n` long (only the first `n` entries are used; contents on
 /// entry do not matter). Names follow §5.3: residual `r`, search direction `c`, `q = S A c`,
 /// preconditioned residual `s = P r`.

@@ -43,6 +43,19 @@ pub enum SparseError {
     InvalidPattern,
 }
 
+impl core::fmt::Display for SparseError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            SparseError::IndexOutOfRange => "vertex index out of range",
+            SparseError::CapacityExceeded => "more couplings than the pattern can hold",
+            SparseError::RowStartTooShort => "row_start is shorter than n + 1",
+            SparseError::LengthMismatch => "slice lengths disagree with the pattern",
+            SparseError::MissingBlock => "the pattern has no entry for this block",
+            SparseError::InvalidPattern => "not a valid strictly-upper CSR pattern",
+        })
+    }
+}
+
 /// Strictly-upper CSR sparsity pattern of a symmetric block matrix with `n = row_start.len() - 1`
 /// block rows. Row `i`'s entries are `row_start[i]..row_start[i + 1]`, their block columns
 /// `cols[k]`; the number of entries is `row_start[n]`, so `cols` may be longer (capacity).

@@ -140,7 +140,7 @@ impl fmt::Display for InitError {
             InitError::EdgeCapacity { capacity } => {
                 write!(f, "the mesh has more edges than the capacity of {capacity}")
             }
-            InitError::Mesh(e) => write!(f, "invalid mesh: {e:?}"),
+            InitError::Mesh(e) => write!(f, "invalid mesh: {e}"),
             InitError::MaterialCount => f.write_str("materials and triangles differ in count"),
             InitError::MaterialOutOfRange { triangle, material } => {
                 write!(
