@@ -9,7 +9,8 @@ use crate::membrane::AssemblyError;
 use crate::normals;
 use crate::pcg::{self, Operator};
 use crate::sparse::{self, Pattern};
-use crate::world::{Arrays, Counts, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
 
 /// Vertex normals, then every node's rotation (Eq. 14–16), warm started.
 pub(crate) fn update_rotations(a: &mut Arrays<'_>, c: &Counts, iterations: u32) {
@@ -106,14 +107,14 @@ pub(crate) fn elastic_rhs(
 pub(crate) fn solve(
     a: &mut Arrays<'_>,
     c: &Counts,
-    st: &crate::world::Settings,
+    st: &crate::world::settings::Settings,
     c_m: f32,
     c_k: f32,
     settings: &pcg::Settings,
     constrained: bool,
 ) -> Result<pcg::Stats, StepError> {
     let n = c.n;
-    let bending_on = st.effects & crate::world::effects::BENDING != 0;
+    let bending_on = st.effects & crate::world::settings::effects::BENDING != 0;
     for (i, (p, q)) in a.precond[..n].iter_mut().zip(&a.rot[..n]).enumerate() {
         let r = Mat3A::from_quat(*q);
         let (Some(k), Some(&m), Some(&qd)) = (a.k_diag.get(i), a.mass.get(i), a.q_diag.get(i))

@@ -12,7 +12,9 @@ use super::system::outer;
 use super::{live, live_mut, monitor, Substep};
 use crate::collide;
 use crate::mesh;
-use crate::world::{effects, Arrays, Counts, Settings, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
+use crate::world::settings::{effects, Settings};
 
 /// Flag in `Arrays::contact`: static friction holds the vertex to its collider.
 pub(crate) const STICK: u32 = 1 << 31;

@@ -17,7 +17,9 @@ use crate::bending;
 use crate::membrane;
 use crate::normals;
 use crate::sparse;
-use crate::world::{effects, Arrays, Counts, Settings, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
+use crate::world::settings::{effects, Settings};
 
 /// Fills `a.rhs` with `h (f − (β + h) K_w v)`, `a.force` with the elastic force and
 /// `a.k_diag`/`a.k_off` with the membrane Jacobian `K_w`. Returns the elastic energy (J) of

@@ -17,7 +17,9 @@ use glam::Vec3A;
 
 use crate::pcg;
 use crate::sparse::Pattern;
-use crate::world::{Arrays, Counts, Settings, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
+use crate::world::settings::Settings;
 
 /// The live prefix `..n` of one of the world's capacity-long arrays. A world's counts never
 /// exceed its capacity, so the error cannot happen; it stands in for the index that is not

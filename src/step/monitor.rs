@@ -21,7 +21,9 @@ use glam::Vec3A;
 
 use crate::bending;
 use crate::membrane;
-use crate::world::{effects, Arrays, Counts, Settings, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
+use crate::world::settings::{effects, Settings};
 
 use super::{live, live_mut, pattern};
 

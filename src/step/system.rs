@@ -12,7 +12,9 @@ use super::{live, live_mut, pattern};
 use crate::multigrid;
 use crate::pcg;
 use crate::sparse;
-use crate::world::{effects, Arrays, Counts, Settings, Solver, StepError};
+use crate::world::error::StepError;
+use crate::world::memory::{Arrays, Counts};
+use crate::world::settings::{effects, Settings, Solver};
 
 /// Absolute floor of the step's CG (`pcg::Settings::floor`) as a velocity: the solve stops
 /// once the remaining error of `Δv` is below this RMS velocity (m/s) in the energy norm, so a

@@ -4,6 +4,7 @@
 
 use glam::{Mat3A, Quat, Vec3A};
 
+use super::settings::Solver;
 use super::InitError;
 use crate::collide::{Collider, Shape};
 use crate::membrane::Element;
@@ -229,4 +230,19 @@ impl<'a> Carver<'a> {
             Ok(core::slice::from_raw_parts_mut(ptr, n))
         }
     }
+}
+
+/// How many of each thing a built world holds: the lengths the step's stages slice its
+/// arrays to.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Counts {
+    pub n: usize,
+    pub nt: usize,
+    pub nnz: usize,
+    pub pins: usize,
+    pub colliders: usize,
+    /// The CG preconditioner.
+    pub solver: Solver,
+    /// Σ lumped masses (kg): the scale of the solve's absolute floor.
+    pub total_mass: f64,
 }

@@ -13,13 +13,13 @@
 //! balance is checked at its end (`step/monitor.rs`).
 
 mod build;
-mod error;
-mod memory;
-mod settings;
+pub(crate) mod error;
+pub(crate) mod memory;
+pub(crate) mod settings;
 
 pub use error::{EditError, Energy, InitError, StepError, StepStats};
-pub(crate) use memory::Arrays;
 pub use memory::Capacity;
+pub(crate) use memory::{Arrays, Counts};
 pub use settings::{effects, Settings, Solver};
 
 use core::ops::Not;
@@ -38,21 +38,6 @@ use crate::normals;
 use crate::sparse::Pattern;
 use crate::step::{self, monitor};
 use crate::strided::Strided;
-
-/// How many of each thing a built world holds: the lengths the step's stages slice its
-/// arrays to.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Counts {
-    pub n: usize,
-    pub nt: usize,
-    pub nnz: usize,
-    pub pins: usize,
-    pub colliders: usize,
-    /// The CG preconditioner.
-    pub solver: Solver,
-    /// Σ lumped masses (kg): the scale of the solve's absolute floor.
-    pub total_mass: f64,
-}
 
 /// A material as the world uses it: stiffness (C^H for a coarse cloth, the pixel's own C for
 /// the fine reference), areal density and bending stiffness.
