@@ -77,7 +77,7 @@
     clippy::unreachable
 )]
 
-use crate::pcg::Preconditioner;
+use crate::pcg::{Blocks, Filter, Free, Preconditioner};
 use crate::sparse::{BlockMatrix, Pattern};
 use glam::{Mat3A, Vec3A};
 
@@ -769,29 +769,6 @@ fn inverse_sym(m: &Mat3A) -> Sym {
     }
     let inv = |d: f64| if d > 0.0 { (1.0 / d) as f32 } else { 0.0 };
     [inv(xx), inv(yy), inv(zz), 0.0, 0.0, 0.0]
-}
-
-/// The constraint filter as a type (as in `pcg`): the unconstrained cycle has no filter work.
-trait Filter {
-    fn at(&self, i: usize, v: Vec3A) -> Vec3A;
-}
-
-struct Free;
-
-impl Filter for Free {
-    #[inline(always)]
-    fn at(&self, _i: usize, v: Vec3A) -> Vec3A {
-        v
-    }
-}
-
-struct Blocks<'a>(&'a [Mat3A]);
-
-impl Filter for Blocks<'_> {
-    #[inline(always)]
-    fn at(&self, i: usize, v: Vec3A) -> Vec3A {
-        self.0.get(i).map_or(v, |s| *s * v)
-    }
 }
 
 /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (9 per

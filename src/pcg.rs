@@ -185,12 +185,12 @@ pub struct Work<'a> {
 
 /// The constraint filter as a type, so the unconstrained solve is monomorphized with an
 /// identity that compiles away ("no constraints must cost nothing extra").
-trait Filter {
+pub(crate) trait Filter {
     /// `S_i v`.
     fn at(&self, i: usize, v: Vec3A) -> Vec3A;
 }
 
-struct Free;
+pub(crate) struct Free;
 
 impl Filter for Free {
     #[inline(always)]
@@ -200,7 +200,7 @@ impl Filter for Free {
 }
 
 /// Per-vertex filter blocks, already checked to hold exactly `n` entries.
-struct Blocks<'a>(&'a [Mat3A]);
+pub(crate) struct Blocks<'a>(pub(crate) &'a [Mat3A]);
 
 impl Filter for Blocks<'_> {
     #[inline(always)]
