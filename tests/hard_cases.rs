@@ -78,22 +78,6 @@ fn run(w: &mut World<'_>, frames: usize, mut frame: impl FnMut(&mut World<'_>, u
     r
 }
 
-fn hanging_sheet(n: usize, size: f32) -> Sheet {
-    let mut sheet = Sheet::grid(n, n, size, size);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
-    sheet
-}
-
-fn pin_top_corners(w: &mut World<'_>, sheet: &Sheet) -> (u32, u32) {
-    let (a, b) = (
-        sheet.index(0, sheet.ny - 1),
-        sheet.index(sheet.nx - 1, sheet.ny - 1),
-    );
-    w.set_pin(a, sheet.positions[a as usize]).unwrap();
-    w.set_pin(b, sheet.positions[b as usize]).unwrap();
-    (a, b)
-}
-
 /// At rest: every vertex slower than a millimetre per second per metre of cloth.
 fn assert_settled(w: &World<'_>, size: f32, what: &str) {
     // (or slower than 10 µm/s: at rest to any eye, and the f32 noise floor of a 1 mm cloth)

@@ -928,13 +928,10 @@ fn depenetration_does_not_launch_the_cloth() {
     );
     assert!(w.positions().iter().all(|p| p.z > 0.14));
     // a sphere appearing 10 cm into a resting, hanging cloth
-    let mut sheet = Sheet::grid(11, 11, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(11, 0.5);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    for i in [sheet.index(0, 10), sheet.index(10, 10)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     for _ in 0..120 {
         w.step().unwrap();
     }
@@ -973,8 +970,7 @@ fn strong_drag_on_light_fabric_is_stable() {
         density: 0.05,
         ..anisotropic()
     }];
-    let mut sheet = Sheet::grid(11, 11, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(11, 0.5);
     let mut mem = memory(&sheet.capacity());
     let settings = Settings {
         effects: Settings::default().effects | effects::WIND,
@@ -983,9 +979,7 @@ fn strong_drag_on_light_fabric_is_stable() {
         ..Settings::default()
     };
     let mut w = world(&mut mem, &sheet, &mats, settings);
-    for i in [sheet.index(0, 10), sheet.index(10, 10)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     let (mut fastest, mut redone, mut removed) = (0.0f32, 0, 0.0f32);
     for step in 0..600 {
         let s = w.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
@@ -1055,13 +1049,10 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 #[test]
 fn random_kicks_on_a_resting_cloth_do_not_create_energy() {
     let mats = [anisotropic()];
-    let mut sheet = Sheet::grid(15, 15, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(15, 0.5);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    for i in [sheet.index(0, 14), sheet.index(14, 14)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     for _ in 0..200 {
         w.step().unwrap();
     }
@@ -1097,9 +1088,7 @@ fn a_stiff_sheet_released_from_two_corners_never_gains_energy() {
     sheet.transform(|p| [p[0], p[1], 0.0]);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    for i in [sheet.index(0, 40), sheet.index(40, 40)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     let mut before = w.energy().total();
     for step in 0..40 {
         w.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
@@ -1118,13 +1107,10 @@ fn a_stiff_sheet_released_from_two_corners_never_gains_energy() {
 #[test]
 fn a_fast_collider_that_stops_short_pushes_nothing() {
     let mats = [anisotropic()];
-    let mut sheet = Sheet::grid(11, 11, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(11, 0.5);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    for i in [sheet.index(0, 10), sheet.index(10, 10)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     for _ in 0..120 {
         w.step().unwrap();
     }
@@ -1163,8 +1149,7 @@ fn a_fast_collider_that_stops_short_pushes_nothing() {
 #[test]
 fn pins_moved_far_settle() {
     let mats = [anisotropic()];
-    let mut sheet = Sheet::grid(15, 15, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(15, 0.5);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
     let (a, b) = (sheet.index(0, 14), sheet.index(14, 14));
@@ -1210,13 +1195,10 @@ fn a_soft_heavy_cloth_hanging_from_two_corners_rests() {
         density: 1.0,
         bending: 1e-5,
     }];
-    let mut sheet = Sheet::grid(15, 15, 0.5, 0.5);
-    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    let sheet = hanging_sheet(15, 0.5);
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    for i in [sheet.index(0, 14), sheet.index(14, 14)] {
-        w.set_pin(i, sheet.positions[i as usize]).unwrap();
-    }
+    pin_top_corners(&mut w, &sheet);
     let mut tail = 0.0f32;
     for step in 0..1200 {
         w.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));

@@ -124,3 +124,21 @@ pub fn kinetic_energy(w: &World<'_>) -> f64 {
         .map(|(v, &m)| 0.5 * m as f64 * v.length_squared() as f64)
         .sum()
 }
+
+/// An `n × n` sheet `size` metres square hanging in the x–z plane (a curtain), at rest.
+pub fn hanging_sheet(n: usize, size: f32) -> Sheet {
+    let mut sheet = Sheet::grid(n, n, size, size);
+    sheet.transform(|p| [p[0], 0.0, p[1]]);
+    sheet
+}
+
+/// Pins the two top corners of a hanging sheet where they are.
+pub fn pin_top_corners(w: &mut World<'_>, sheet: &Sheet) -> (u32, u32) {
+    let (a, b) = (
+        sheet.index(0, sheet.ny - 1),
+        sheet.index(sheet.nx - 1, sheet.ny - 1),
+    );
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    (a, b)
+}
