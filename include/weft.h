@@ -196,9 +196,9 @@
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
  * split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
- * (Biot) and R carries the micro displacement into 3D. The strain measure of the coarse step's
- * corotated elements, so the fine pattern matches the cell problem's linear solution; use this
- * one unless you want the paper verbatim.
+ * (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
+ * problem's linear solution; use this one unless you want the paper verbatim. (The coarse step
+ * itself measures Green strain; the two agree to first order.)
  */
 #define WEFT_STRAIN_COROTATED 0
 
@@ -208,6 +208,16 @@
  * overshoots the micro fluctuation slightly under stretch.
  */
 #define WEFT_STRAIN_GREEN 1
+
+/**
+ * `weft_world_set_solver`: CG preconditioned by an aggregation multigrid V-cycle (the default).
+ */
+#define WEFT_SOLVER_MULTIGRID 0
+
+/**
+ * `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
+ */
+#define WEFT_SOLVER_BLOCK_JACOBI 1
 
 /**
  * `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
@@ -1200,6 +1210,17 @@ WeftResult weft_world_set_settings(struct WeftWorld *world, const struct WeftSet
  * `world` is a handle from `weft_world_create` (or NULL).
  */
 WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
+
+/**
+ * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
+ * default: CG iterations that grow slowly with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
+ * cheaper cycle whose iteration count grows with the mesh); any other value is
+ * `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_set_solver(struct WeftWorld *world, uint32_t solver);
 
 /**
  * Whether the world is asleep (false for an invalid handle).

@@ -905,6 +905,26 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     };
     let v = |x, y, z| WeftVec3 { x, y, z };
 
+    // The solver.
+    assert_eq!(
+        unsafe { weft_world_set_solver(w, 7) },
+        WeftResult::InvalidArgument
+    );
+    detail(&mut d);
+    assert_eq!(what(&d), "solver");
+    assert_eq!(
+        unsafe { weft_world_set_solver(w, WEFT_SOLVER_BLOCK_JACOBI) },
+        WeftResult::Ok
+    );
+    assert_eq!(
+        unsafe { weft_world_set_solver(w, WEFT_SOLVER_MULTIGRID) },
+        WeftResult::Ok
+    );
+    assert_eq!(
+        unsafe { weft_world_set_solver(ptr::null_mut(), WEFT_SOLVER_MULTIGRID) },
+        WeftResult::NullPointer
+    );
+
     // Pins.
     assert_eq!(
         unsafe { weft_world_set_pin(w, 16, v(0.0, 0.0, 0.0)) },

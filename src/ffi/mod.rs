@@ -127,14 +127,19 @@ pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_926_560;
 
 /// `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
 /// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
-/// (Biot) and R carries the micro displacement into 3D. The strain measure of the coarse step's
-/// corotated elements, so the fine pattern matches the cell problem's linear solution; use this
-/// one unless you want the paper verbatim.
+/// (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
+/// problem's linear solution; use this one unless you want the paper verbatim. (The coarse step
+/// itself measures Green strain; the two agree to first order.)
 pub const WEFT_STRAIN_COROTATED: u32 = 0;
 /// `strain_measure` of `weft_localize_prepare`: the paper verbatim, Green strain (FᵀF - I)/2
 /// (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order;
 /// overshoots the micro fluctuation slightly under stretch.
 pub const WEFT_STRAIN_GREEN: u32 = 1;
+
+/// `weft_world_set_solver`: CG preconditioned by an aggregation multigrid V-cycle (the default).
+pub const WEFT_SOLVER_MULTIGRID: u32 = 0;
+/// `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
+pub const WEFT_SOLVER_BLOCK_JACOBI: u32 = 1;
 
 /// `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
 /// vertex normals (smooth, cheap: about 1.3 × the cost of positions alone).

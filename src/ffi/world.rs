@@ -6,11 +6,13 @@ use core::mem::size_of;
 use core::ptr;
 
 use super::convert::*;
-use super::result::{fault, init_fault, null, step_fault, FfiResult};
+use super::result::{fault, init_fault, invalid, null, step_fault, FfiResult};
 use super::types::*;
 use super::*;
 use crate::localize::blocks;
-use crate::world::{Capacity, Materials, Settings, StridedClothDef, TriangleMaterials, World};
+use crate::world::{
+    Capacity, Materials, Settings, Solver, StridedClothDef, TriangleMaterials, World,
+};
 
 /// The default capacity: `WEFT_DEFAULT_MAX_*`.
 #[no_mangle]
@@ -438,6 +440,29 @@ pub unsafe extern "C" fn weft_world_set_effects(world: *mut WeftWorld, effects: 
                 ..*w.world.settings()
             };
             w.world.set_settings(s).map_err(init_fault)
+        })
+    }
+}
+
+/// Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
+/// default: CG iterations that grow slowly with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
+/// cheaper cycle whose iteration count grows with the mesh); any other value is
+/// `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_solver(world: *mut WeftWorld, solver: u32) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            let solver = match solver {
+                WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
+                WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
+                _ => return Err(invalid(c"solver")),
+            };
+            w.world.set_solver(solver);
+            Ok(())
         })
     }
 }
