@@ -1,0 +1,375 @@
+//! An algebraic multilevel preconditioner for the filtered PCG of [`crate::pcg`]: unsmoothed
+//! aggregation, Galerkin coarse operators recomputed every solve, a symmetric V-cycle with
+//! damped block-Jacobi smoothing and a dense Cholesky solve on the coarsest level.
+//!
+//! Why: block-Jacobi PCG needs a number of iterations that grows with the mesh (the implicit
+//! step's `A = c_m M + c_k K` gets stiffer relative to the mass as the triangles shrink:
+//! ~160 iterations at 21×21 vertices, past a 200 cap from 41×41 on at tolerance 1e-5). A
+//! multilevel preconditioner removes the smooth error that Jacobi cannot, so the count stays
+//! bounded as the mesh is refined.
+//!
+//! # Hierarchy (built once, [`build`])
+//!
+//! From the block pattern alone (any triangle mesh; nothing grid-specific): level 0 is the
+//! caller's matrix; level `ℓ + 1` has one vertex per *aggregate* of level `ℓ`. Aggregation is
+//! greedy over the symmetric coupling graph, in ascending vertex order (deterministic):
+//! 1. a vertex whose neighbours are all unaggregated becomes a root: it and all its
+//!    neighbours form a new aggregate;
+//! 2. every vertex left over (it has an aggregated neighbour, else it would have been a root)
+//!    joins the aggregate of its first neighbour aggregated in step 1.
+//!
+//! Levels are added until the coarsest has at most [`MAX_DENSE`] vertices, [`MAX_LEVELS`] are
+//! reached, coarsening stalls (fewer than 10% fewer vertices, e.g. a mesh of isolated vertices)
+//! or the caller's pools are full; a coarsest level above [`MAX_DENSE`] vertices is smoothed
+//! instead of solved ([`Options::coarse_sweeps`]). The coarse patterns live in the pools; so
+//! does everything else, see [`Memory`].
+//!
+//! # Operators (every solve, [`Multigrid::new`])
+//!
+//! The prolongation `P` of level `ℓ` copies an aggregate's value to its members (3×3 identity
+//! blocks). The constraint filter `S` of the PCG (pins `0`, contacts `I − n nᵀ`) is folded in
+//! as in Tamstorf, Jones & McCormick 2015 ("Smoothed aggregation multigrid for cloth
+//! simulation"): the hierarchy approximates the filtered operator `Â = S A S + τ (I − S)`
+//! (constrained directions decoupled; `τ_i = tr(A_ii)/3` only keeps the diagonal blocks well
+//! scaled), and the first prolongation is filtered, `P̂ = S P`, so that coarse corrections
+//! never move a constrained direction. The coarse operators are Galerkin,
+//! `A₁ = P̂ᵀ Â P̂ = Pᵀ (S A S) P` and `A_{ℓ+1} = Pᵀ A_ℓ P`: for piecewise-constant `P` a coarse
+//! block is the sum of the fine blocks between two aggregates, accumulated through the coarse
+//! pattern (one pass over the fine blocks). A fully constrained aggregate direction gives a
+//! zero coarse row; the block inverses and the Cholesky treat it as decoupled (zero output).
+//!
+//! # Cycle ([`Preconditioner::apply`])
+//!
+//! One cycle with `ν` = [`Options::sweeps`] smoothing sweeps before and after the coarse
+//! correction on every level, the first from `z = 0`. The default smoother is damped block
+//! Jacobi (`z += ω D⁻¹ (r − A z)`, [`Smoother::Jacobi`]); block Gauss–Seidel
+//! ([`Smoother::GaussSeidel`]) is an option: forward sweeps (ascending vertices) before,
+//! backward sweeps after, so the post-smoother is the adjoint of the pre-smoother; with the
+//! strictly-upper storage a forward sweep scatters `t_j −= A_ijᵀ δ_i` and a backward one
+//! gathers. Either way the
+//! cycle is a symmetric operator, positive definite when every level's smoother converges
+//! (Gauss–Seidel: always, for SPD levels; Jacobi: `ω λ_max(D⁻¹ A) < 2`). Each coarse level is
+//! visited `γ` = [`Options::cycle`] times per visit of its parent (default `1`, a V-cycle; `2` a W-cycle):
+//! `γ` stationary steps of the coarse cycle, a fixed linear SPD operator (no flexible outer
+//! iteration), saving the coarse iterate in the parent's scratch (no extra memory). The input is
+//! filtered first and the output lies in `range(S)`, so the operator applied is `S B S` with `B`
+//! the cycle on `Â`.
+//!
+//! Measured on the World's step (tolerance 1e-3, `examples/bench_solver.rs`, pinned+contact,
+//! CG iterations per solve at 21/41/81 per side): Jacobi V-cycle 22/38/67, Jacobi W 18/38/58,
+//! Gauss–Seidel V 15/30/51, Gauss–Seidel W 14/29/46 ([`Options::FEWEST_ITERATIONS`]),
+//! Gauss–Seidel `ν = 2` W 11/21/33, over-correction 1.4 did not help. On weft-bench's scene the
+//! step with the Jacobi V-cycle was the fastest per step at 21, 41 and 81 per side in the same
+//! run (1.1–1.3× faster than Gauss–Seidel W despite more iterations): the default.
+//!
+//! Numerics: `f32` vectors and blocks, block inverses and the coarsest Cholesky in `f64`;
+//! every loop runs in a fixed serial order, so a cycle is bit-reproducible.
+//!
+//! Memory: everything lives in the caller's [`Memory`] (lengths from `const fn`s of the
+//! fine vertex and coupling counts), plus, at solve time, `n` blocks for the finest level's
+//! smoother (the block-Jacobi array a caller already has) and the PCG's dead `q` vector as the
+//! finest level's scratch. Nothing allocates and nothing panics.
+#![deny(
+    clippy::indexing_slicing,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::unreachable
+)]
+
+use crate::pcg::{Blocks, Filter, Free, Preconditioner};
+use crate::sparse::{BlockMatrix, Pattern};
+use glam::{Mat3A, Vec3A};
+
+/// Most levels in a hierarchy (the finest included).
+pub const MAX_LEVELS: usize = 8;
+/// Largest coarsest level (vertices) that is solved by a dense Cholesky factorization.
+pub const MAX_DENSE: usize = 8;
+const DENSE_DOF: usize = 3 * MAX_DENSE;
+const DENSE_LEN: usize = DENSE_DOF * (DENSE_DOF + 1) / 2;
+
+const MAGIC: u32 = 0x4d47_0001;
+/// Per level: n, nnz, agg, rs, cols, blk, vec (see [`Level`]).
+const LEVEL_WORDS: usize = 7;
+/// magic, levels, dense flag, reserved, then the levels.
+const HEADER: usize = 4 + LEVEL_WORDS * MAX_LEVELS;
+const NONE: u32 = u32::MAX;
+const PASS2: u32 = 1 << 31;
+/// Relative ridge added to a coarse diagonal block before inverting it (bounds its condition
+/// number by ~1e6 so that the `f32` inverse stays SPD; zero for all practical blocks).
+const RIDGE: f64 = 1e-6;
+/// Relative pivot below which the coarsest Cholesky treats a direction as decoupled.
+const PIVOT: f64 = 1e-9;
+
+/// Budget of all coarse levels together, in vertices: measured coarsening on triangle meshes
+/// is ~8–9× per level on the mesh edges (so the coarse levels sum to ~n/8; measured 819 at
+/// 81×81 = 6561 vertices); `n/7` leaves some room for irregular meshes. A mesh that coarsens worse gets fewer levels, not an error.
+const fn coarse_vertices(vertices: usize) -> usize {
+    (vertices / 7).saturating_add(MAX_LEVELS)
+}
+
+/// Budget of all coarse levels together, in couplings (measured ~nnz/17 in total: 2304 at
+/// 81×81 with 38,400 fine couplings, 9524 at 161×161 with 153,600).
+const fn coarse_couplings(couplings: usize) -> usize {
+    (couplings / 16).saturating_add(2 * MAX_LEVELS)
+}
+
+/// `u32` entries of [`Memory::index`] for a fine level of `vertices` vertices and
+/// `couplings` off-diagonal blocks (the strictly-upper pattern entries): the header, the
+/// coarse levels' aggregate maps and the coarse patterns. (The finest level's aggregate map,
+/// `vertices` entries, is [`Memory::agg`].)
+pub const fn index_len(vertices: usize, couplings: usize) -> usize {
+    let cv = coarse_vertices(vertices);
+    HEADER
+        .saturating_add(cv.saturating_mul(2))
+        .saturating_add(MAX_LEVELS)
+        .saturating_add(coarse_couplings(couplings))
+}
+
+/// `f32` entries of [`Memory::blocks`]: the finest level's inverse diagonal blocks (6 floats
+/// each, symmetric) and the coarse operators (a symmetric diagonal block and its inverse per
+/// coarse vertex; 9 floats per coarse coupling). Rewritten by every [`Multigrid::new`], so a
+/// caller may lend memory that is free during the solve (the World lends its block-Jacobi
+/// array).
+pub const fn blocks_len(vertices: usize, couplings: usize) -> usize {
+    vertices.saturating_mul(6).saturating_add(
+        coarse_vertices(vertices)
+            .saturating_mul(12)
+            .saturating_add(coarse_couplings(couplings).saturating_mul(9)),
+    )
+}
+
+/// `u32` entries of [`build`]'s scratch (only used during the build).
+pub const fn scratch_len(vertices: usize, couplings: usize) -> usize {
+    vertices
+        .saturating_mul(4)
+        .saturating_add(couplings)
+        .saturating_add(2)
+}
+
+/// `f64` entries of [`Memory::dense`]: the packed Cholesky factor of a coarsest level of up
+/// to [`MAX_DENSE`] vertices (independent of the mesh).
+pub const fn dense_len(_vertices: usize, _couplings: usize) -> usize {
+    DENSE_LEN
+}
+
+/// `Vec3A` entries of [`Memory::vectors`]: residual, correction and scratch per coarse vertex
+/// (rewritten by every cycle: may be lent, like `blocks`).
+pub const fn vectors_len(vertices: usize, _couplings: usize) -> usize {
+    coarse_vertices(vertices).saturating_mul(3)
+}
+
+/// Bytes of the four pools together (without alignment padding).
+pub const fn bytes(vertices: usize, couplings: usize) -> usize {
+    index_len(vertices, couplings)
+        .saturating_mul(4)
+        .saturating_add(blocks_len(vertices, couplings).saturating_mul(4))
+        .saturating_add(dense_len(vertices, couplings).saturating_mul(8))
+        .saturating_add(vectors_len(vertices, couplings).saturating_mul(16))
+}
+
+/// The caller's memory for one solve: `index` is the hierarchy written by [`build`] (read
+/// only); `blocks`, `dense` and `vectors` are rewritten by every [`Multigrid::new`] / cycle,
+/// so they need to persist only for the solve. Each slice must hold at least the
+/// corresponding `*_len(vertices, couplings)` entries.
+pub struct Memory<'a> {
+    /// The finest level's aggregate map (`vertices` entries), written by [`build`].
+    pub agg: &'a [u32],
+    pub index: &'a [u32],
+    pub blocks: &'a mut [f32],
+    pub dense: &'a mut [f64],
+    pub vectors: &'a mut [Vec3A],
+}
+
+/// Errors of [`build`] and [`Multigrid::new`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MgError {
+    /// A [`Memory`] slice is shorter than its `*_len`.
+    MemoryTooSmall,
+    /// The fine pattern is not a valid strictly-upper CSR pattern.
+    InvalidPattern,
+    /// `index` holds no hierarchy, or one for another pattern size.
+    NotBuilt,
+    /// The matrix, filter or finest-level blocks do not have the hierarchy's sizes.
+    LengthMismatch,
+    /// An internal inconsistency (a bug if it happens; never a panic).
+    Internal,
+}
+
+/// The shape of a built hierarchy.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Info {
+    /// Levels, the finest included (1 means no coarse level: plain Jacobi smoothing).
+    pub levels: usize,
+    /// Vertices per level.
+    pub vertices: [u32; MAX_LEVELS],
+    /// Off-diagonal blocks (strictly-upper pattern entries) per level.
+    pub couplings: [u32; MAX_LEVELS],
+    /// The coarsest level is solved exactly (dense Cholesky) rather than smoothed.
+    pub dense: bool,
+}
+
+/// Cycle parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// Jacobi damping `ω`.
+    pub omega: f32,
+    /// Pre- and post-smoothing sweeps per level (`ν`, at least 1).
+    pub sweeps: u32,
+    /// Jacobi sweeps on a coarsest level too large for the dense solve.
+    pub coarse_sweeps: u32,
+    /// Scale of the coarse-grid correction (over-correction; `1` is plain Galerkin).
+    pub correction: f32,
+    /// The smoother of every level.
+    pub smoother: Smoother,
+    /// Cycle index `γ`: visits of each coarse level per visit of its parent (`1`: V-cycle,
+    /// `2`: W-cycle; at least 1).
+    pub cycle: u32,
+}
+
+/// A level's smoother; both keep the cycle symmetric (the post-smoother is the adjoint of
+/// the pre-smoother).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Smoother {
+    /// Damped block Jacobi, `z += ω D⁻¹ (r − A z)` (the same before and after).
+    Jacobi,
+    /// Block Gauss–Seidel: forward sweeps before the coarse correction, backward sweeps
+    /// after (no damping; convergent for any SPD matrix).
+    GaussSeidel,
+}
+
+impl Options {
+    /// Block Gauss–Seidel, `ν = 1`, W-cycle: the fewest CG iterations per solve measured
+    /// (not the fastest step; see [`Options::default`]).
+    pub const FEWEST_ITERATIONS: Options = Options {
+        omega: 0.6,
+        sweeps: 1,
+        coarse_sweeps: 4,
+        correction: 1.0,
+        smoother: Smoother::GaussSeidel,
+        cycle: 2,
+    };
+}
+
+impl Default for Options {
+    /// Damped block Jacobi (`ω = 0.6`, `ν = 1`), V-cycle: chosen by time per step. On
+    /// weft-bench's scene (pins, a sphere contact, wind; tolerance 1e-3) block Gauss–Seidel
+    /// with a W-cycle ([`Options::FEWEST_ITERATIONS`]) needs fewer CG iterations (15 / 20 / 29
+    /// instead of 20 / 28 / 44 at 21 / 41 / 81 per side) but each costs more, and the step
+    /// took 1.1–1.3× as long in the same run.
+    fn default() -> Self {
+        Self {
+            omega: 0.6,
+            sweeps: 1,
+            coarse_sweeps: 4,
+            correction: 1.0,
+            smoother: Smoother::Jacobi,
+            cycle: 1,
+        }
+    }
+}
+
+/// Offsets of one level: `agg` (index pool) maps its vertices to the next level's; `rs`,
+/// `cols` (index pool) are its pattern and `blk` (blocks pool) its operator: `6 n` floats of
+/// diagonal blocks, `6 n` of their inverses, `9 nnz` of off-diagonal blocks; `vec` (vectors
+/// pool) its residual, correction and scratch, `n` each. Level 0 uses only `agg`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Level {
+    n: usize,
+    nnz: usize,
+    agg: usize,
+    rs: usize,
+    cols: usize,
+    blk: usize,
+    vec: usize,
+}
+
+impl Level {
+    fn to_words(self) -> [u32; LEVEL_WORDS] {
+        [
+            self.n, self.nnz, self.agg, self.rs, self.cols, self.blk, self.vec,
+        ]
+        .map(|v| v as u32)
+    }
+    fn from_words(w: &[u32]) -> Option<Level> {
+        let &[n, nnz, agg, rs, cols, blk, vec] = w else {
+            return None;
+        };
+        Some(Level {
+            n: n as usize,
+            nnz: nnz as usize,
+            agg: agg as usize,
+            rs: rs as usize,
+            cols: cols as usize,
+            blk: blk as usize,
+            vec: vec as usize,
+        })
+    }
+}
+
+struct Header {
+    levels: [Level; MAX_LEVELS],
+    count: usize,
+    dense: bool,
+}
+
+fn read_header(index: &[u32]) -> Option<Header> {
+    let head = index.get(..HEADER)?;
+    if *head.first()? != MAGIC {
+        return None;
+    }
+    let count = *head.get(1)? as usize;
+    if count == 0 || count > MAX_LEVELS {
+        return None;
+    }
+    let dense = *head.get(2)? != 0;
+    let mut levels = [Level::default(); MAX_LEVELS];
+    for (l, lv) in levels.iter_mut().enumerate().take(count) {
+        let at = 4 + l * LEVEL_WORDS;
+        *lv = Level::from_words(head.get(at..at + LEVEL_WORDS)?)?;
+    }
+    Some(Header {
+        levels,
+        count,
+        dense,
+    })
+}
+
+fn info_of(h: &Header) -> Info {
+    let mut info = Info {
+        levels: h.count,
+        dense: h.dense,
+        ..Info::default()
+    };
+    for (l, lv) in h.levels.iter().enumerate().take(h.count) {
+        if let (Some(v), Some(c)) = (info.vertices.get_mut(l), info.couplings.get_mut(l)) {
+            *v = lv.n as u32;
+            *c = lv.nnz as u32;
+        }
+    }
+    info
+}
+
+/// The shape of the hierarchy in `index`, if one was built there.
+pub fn info(index: &[u32]) -> Option<Info> {
+    read_header(index).map(|h| info_of(&h))
+}
+
+/// `pool[at..at + len]`.
+#[inline]
+fn part<T>(pool: &[T], at: usize, len: usize) -> Result<&[T], MgError> {
+    pool.get(at..at.checked_add(len).ok_or(MgError::Internal)?)
+        .ok_or(MgError::Internal)
+}
+
+#[inline]
+fn part_mut<T>(pool: &mut [T], at: usize, len: usize) -> Result<&mut [T], MgError> {
+    pool.get_mut(at..at.checked_add(len).ok_or(MgError::Internal)?)
+        .ok_or(MgError::Internal)
+}
+
+mod cycle;
+mod hierarchy;
+
+pub use cycle::Multigrid;
+pub use hierarchy::{build, Graph};
