@@ -34,6 +34,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use crate::lattice;
 use crate::membrane;
 use crate::Voigt;
 
@@ -687,7 +688,7 @@ pub fn mesh_cell(desc: &CellDesc, refine: usize) -> MicroMesh {
             nodes.push([at(i), at(j)]);
         }
     }
-    let id = |i: usize, j: usize| ((j % nv) * nu + (i % nu)) as u32;
+    let id = |i: usize, j: usize| lattice::node(i % nu, j % nv, nu) as u32;
     let mut triangles = Vec::with_capacity(2 * nu * nv);
     let mut tri_material = Vec::with_capacity(2 * nu * nv);
     let mut tri_corners = Vec::with_capacity(2 * nu * nv);
@@ -696,9 +697,9 @@ pub fn mesh_cell(desc: &CellDesc, refine: usize) -> MicroMesh {
             let (ll, lr, ur, ul) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
             let (pll, plr) = ([at(i), at(j)], [at(i + 1), at(j)]);
             let (pur, pul) = ([at(i + 1), at(j + 1)], [at(i), at(j + 1)]);
-            let material = desc.pixel(desc.rows - 1 - j / k, i / k);
-            triangles.push([ll, lr, ur]);
-            triangles.push([ll, ur, ul]);
+            let (row, col) = lattice::pixel_of_square(i, j, k, desc.rows);
+            let material = desc.pixel(row, col);
+            triangles.extend(lattice::square_triangles(ll, lr, ur, ul));
             tri_corners.push([pll, plr, pur]);
             tri_corners.push([pll, pur, pul]);
             tri_material.push(material);
@@ -739,7 +740,7 @@ pub fn mesh_sheet(desc: &CellDesc, refine: usize, tiles_u: usize, tiles_v: usize
             nodes.push([at(i), at(j)]);
         }
     }
-    let id = |i: usize, j: usize| (j * stride + i) as u32;
+    let id = |i: usize, j: usize| lattice::node(i, j, stride) as u32;
     let mut triangles = Vec::with_capacity(2 * nu * nv);
     let mut tri_material = Vec::with_capacity(2 * nu * nv);
     let mut tri_corners = Vec::with_capacity(2 * nu * nv);
@@ -748,9 +749,9 @@ pub fn mesh_sheet(desc: &CellDesc, refine: usize, tiles_u: usize, tiles_v: usize
             let (ll, lr, ur, ul) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
             let (pll, plr) = ([at(i), at(j)], [at(i + 1), at(j)]);
             let (pur, pul) = ([at(i + 1), at(j + 1)], [at(i), at(j + 1)]);
-            let material = desc.pixel(desc.rows - 1 - (j % cv) / k, (i % cu) / k);
-            triangles.push([ll, lr, ur]);
-            triangles.push([ll, ur, ul]);
+            let (row, col) = lattice::pixel_of_square(i % cu, j % cv, k, desc.rows);
+            let material = desc.pixel(row, col);
+            triangles.extend(lattice::square_triangles(ll, lr, ur, ul));
             tri_corners.push([pll, plr, pur]);
             tri_corners.push([pll, pur, pul]);
             tri_material.push(material);

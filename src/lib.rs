@@ -54,6 +54,7 @@ pub mod bending;
 pub mod blob;
 pub mod collide;
 pub mod ffi;
+pub mod lattice;
 pub mod localize;
 pub mod membrane;
 pub mod mesh;

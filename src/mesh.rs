@@ -499,15 +499,16 @@ pub fn grid(
     let mut out = triangles.iter_mut();
     for j in 0..ny - 1 {
         for i in 0..nx - 1 {
-            let ll = (j * nx + i) as u32;
-            let lr = ll + 1;
-            let ul = ll + nx as u32;
-            let ur = ul + 1;
+            let id = |i: usize, j: usize| crate::lattice::node(i, j, nx) as u32;
             let (Some(lower), Some(upper)) = (out.next(), out.next()) else {
                 return Err(MeshError::BufferTooSmall); // checked above
             };
-            *lower = [ll, lr, ur];
-            *upper = [ll, ur, ul];
+            [*lower, *upper] = crate::lattice::square_triangles(
+                id(i, j),
+                id(i + 1, j),
+                id(i + 1, j + 1),
+                id(i, j + 1),
+            );
         }
     }
     Ok((nv, nt))

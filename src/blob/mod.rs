@@ -25,6 +25,7 @@ compile_error!(
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::lattice;
 use crate::membrane::is_spd;
 
 mod error;
@@ -716,8 +717,8 @@ fn validate_cell(cell: u32, c: &Cell<'_>) -> Result<(), BlobError> {
         if m as usize >= c.materials.len() {
             return Err(BlobError::MaterialIndexOutOfRange { cell, triangle });
         }
-        let (i, j) = ((t / 2) % nu, (t / 2) / nu);
-        let first = 2 * ((j / k * k) * nu + i / k * k);
+        let (i, j, _) = lattice::square_of_triangle(t, nu);
+        let first = 2 * lattice::node(i / k * k, j / k * k, nu);
         if c.tri_material.get(first) != Some(&m) {
             return Err(BlobError::PixelMaterialMismatch { cell, triangle });
         }
@@ -740,14 +741,15 @@ fn validate_cell(cell: u32, c: &Cell<'_>) -> Result<(), BlobError> {
 /// `(i, j) = (t/2 mod nu, t/2 div nu)`, `[ll, lr, ur]` then `[ll, ur, ul]`. Requires `nu, nv ≥ 1`
 /// and the node count to fit in u32 (checked by the caller).
 fn canonical_triangle(nu: usize, nv: usize, t: usize) -> [u32; 3] {
-    let (i, j) = ((t / 2) % nu, (t / 2) / nu);
+    let (i, j, upper) = lattice::square_of_triangle(t, nu);
     let (i1, j1) = ((i + 1) % nu, (j + 1) % nv);
-    let id = |i: usize, j: usize| (j * nu + i) as u32;
-    let (ll, lr, ur, ul) = (id(i, j), id(i1, j), id(i1, j1), id(i, j1));
-    if t.is_multiple_of(2) {
-        [ll, lr, ur]
+    let id = |i: usize, j: usize| lattice::node(i, j, nu) as u32;
+    let [lower_tri, upper_tri] =
+        lattice::square_triangles(id(i, j), id(i1, j), id(i1, j1), id(i, j1));
+    if upper {
+        upper_tri
     } else {
-        [ll, ur, ul]
+        lower_tri
     }
 }
 

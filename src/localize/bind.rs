@@ -368,7 +368,7 @@ fn chi_in_cell(cell: &Cell<'_>, p: [f64; 2]) -> [f64; 6] {
     let (i, s) = lattice(p[0], w, nu);
     let (j, t) = lattice(p[1], h, nv);
     let (i1, j1) = ((i + 1) % nu, (j + 1) % nv);
-    let node = |a: usize, b: usize| b * nu + a;
+    let node = |a: usize, b: usize| crate::lattice::node(a, b, nu);
     let (ll, lr, ur, ul) = (node(i, j), node(i1, j), node(i1, j1), node(i, j1));
     let corners = if s >= t {
         [(ll, 1.0 - s), (lr, s - t), (ur, t)]

@@ -131,14 +131,13 @@ pub fn tiled_mesh(
     for (k, o) in uv_out.iter_mut().take(nvert).enumerate() {
         *o = [u.at(k % nx), v.at(k / nx)];
     }
-    let id = |i: usize, j: usize| (j * nx + i) as u32;
+    let id = |i: usize, j: usize| crate::lattice::node(i, j, nx) as u32;
     let mut tris = triangles_out.iter_mut();
     for j in 0..ny - 1 {
         for i in 0..nx - 1 {
             let (ll, lr, ur, ul) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
             if let (Some(a), Some(b)) = (tris.next(), tris.next()) {
-                *a = [ll, lr, ur];
-                *b = [ll, ur, ul];
+                [*a, *b] = crate::lattice::square_triangles(ll, lr, ur, ul);
             }
         }
     }
