@@ -65,7 +65,8 @@
 //!   pixel mesh in every direction — also checked in the tests — but couples two-ring
 //!   neighbours.)
 //!
-//! Everything here runs once at world init (the Hessian is constant), so it works in `f64`.
+//! The Hessian is constant: [`hinge_hessian`] runs once at world init, in `f64`; the force
+//! ([`add_forces`]) and energy ([`energy`]) run every substep, in `f32` edge-difference form.
 
 use glam::Vec3A;
 

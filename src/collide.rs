@@ -1,4 +1,5 @@
-//! Kinematic colliders (plane, sphere, capsule) and cloth–collider contact.
+//! Kinematic colliders (plane, sphere, capsule, shell: a hollow sphere) and cloth–collider
+//! contact shapes: proximity, sweep, surface velocity, projection.
 //!
 //! Contact enters the step twice (docs/ARCHITECTURE.md, "One step, in order"):
 //! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets

@@ -39,18 +39,18 @@ impl Field {
     }
 }
 
-/// Why a blob (or, for the writer, a [`CellRecord`]) was rejected. Each corruption class has its
+/// Why a blob (or, for the writer, a [`super::CellRecord`]) was rejected. Each corruption class has its
 /// own variant so that a caller (and the tests) can tell them apart; `cell` is the cell index,
 /// `section` the section-table entry index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BlobError {
     /// Shorter than the header, or than the total size the header announces.
     TooShort,
-    /// The first 8 bytes are not [`MAGIC`].
+    /// The first 8 bytes are not [`super::MAGIC`].
     BadMagic,
     /// A version this reader does not know.
     UnsupportedVersion { found: u32 },
-    /// Header size field is not [`HEADER_SIZE`], or a reserved header byte is not zero.
+    /// Header size field is not [`super::HEADER_SIZE`], or a reserved header byte is not zero.
     BadHeader,
     /// More bytes than the header's total size (`expected`).
     TrailingBytes { expected: u64, found: u64 },
@@ -75,7 +75,7 @@ pub enum BlobError {
     SectionSizeMismatch { section: u32 },
     /// A padding byte (at this absolute offset) is not zero.
     NonZeroPadding { offset: u64 },
-    /// Name empty, longer than [`MAX_NAME_LEN`], not UTF-8, containing NUL, or not NUL-padded.
+    /// Name empty, longer than [`super::MAX_NAME_LEN`], not UTF-8, containing NUL, or not NUL-padded.
     BadName { cell: u32 },
     /// Two cells share a name (cells are looked up by name).
     DuplicateName { cell: u32 },

@@ -8,7 +8,7 @@
 //!   after which [`Blob::cell`] hands out [`Cell`] views whose arrays borrow the input bytes.
 //!   Whatever the bytes, the reader never panics and never reads out of bounds: every offset is
 //!   computed with checked arithmetic and every access goes through `get`.
-//! * Writer (`std`, `writer.rs`): [`write`] runs the *same* per-cell validation on
+//! * Writer (`std`, `writer.rs`): [`write()`](fn@write) runs the *same* per-cell validation on
 //!   [`CellRecord`]s before it lays anything out, so an invalid blob is never produced;
 //!   [`Cell::to_record`] closes the round trip. [`load_aligned`] reads a file into a buffer
 //!   aligned for the in-place reader.
@@ -32,7 +32,7 @@ mod error;
 use crate::Voigt;
 pub use error::{BlobError, Field};
 
-/// Format version written by [`write`] and the only one [`Blob::parse`] accepts.
+/// Format version written by [`write()`](fn@write) and the only one [`Blob::parse`] accepts.
 pub const VERSION: u32 = 1;
 /// The first eight bytes of every blob.
 pub const MAGIC: [u8; 8] = *b"WEFTCELL";

@@ -196,6 +196,18 @@ pub enum MgError {
     Internal,
 }
 
+impl core::fmt::Display for MgError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            MgError::MemoryTooSmall => "a memory slice is shorter than the hierarchy needs",
+            MgError::InvalidPattern => "not a valid strictly-upper CSR pattern",
+            MgError::NotBuilt => "no hierarchy built for this pattern",
+            MgError::LengthMismatch => "matrix, filter or blocks do not match the hierarchy",
+            MgError::Internal => "internal consistency check failed",
+        })
+    }
+}
+
 /// The shape of a built hierarchy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Info {

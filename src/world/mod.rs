@@ -9,7 +9,7 @@
 //!
 //! A step is linearized implicit Euler on the per-element corotated membrane (`membrane.rs`),
 //! hinge bending, gravity, wind and Rayleigh damping, with pins and contacts in the filter of
-//! the modified PCG; its stages live in [`crate::step`], in order, and every step's energy
+//! the modified PCG; its stages live in `crate::step` (`src/step/`), in order, and every step's energy
 //! balance is checked at its end (`step/monitor.rs`).
 
 mod build;
@@ -478,7 +478,7 @@ impl<'a> World<'a> {
     }
 
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
-    /// [`crate::step`]), then checks the step's energy balance: a step whose end state holds
+    /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
     /// substeps (at most twice), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]). On error the world keeps

@@ -21,12 +21,12 @@ pub mod effects {
     pub const ALL: u32 = (1 << 8) - 1;
 }
 
-/// Scene parameters. Can change between steps ([`World::set_settings`]).
+/// Scene parameters. Can change between steps ([`super::World::set_settings`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
     /// Bit set of [`effects`].
     pub effects: u32,
-    /// Frame time step (s) used by [`World::step`].
+    /// Frame time step (s) used by [`super::World::step`].
     pub time_step: f32,
     /// Substeps per step (≥ 1).
     pub substeps: u32,
@@ -148,7 +148,7 @@ impl Settings {
     }
 }
 
-/// The preconditioner of the step's CG ([`World::set_solver`]).
+/// The preconditioner of the step's CG ([`super::World::set_solver`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Solver {
     /// The inverse 3×3 diagonal blocks: cheap per iteration, but the iteration count grows
