@@ -37,12 +37,15 @@ pub(crate) struct Level {
     pub noise: f64,
 }
 
-/// Kinetic + elastic (as the step's forces see it) + bending energy of the current
-/// state, with a bound on its `f32` round-off.
-pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, StepError> {
-    let n = c.n;
+/// Elastic (as the step's forces see it) and bending energy of the current positions (J), and
+/// the bending energy's round-off bound: the part of the energy that only positions set.
+pub(crate) fn shape_energy(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+) -> Result<(f64, f64, f64), StepError> {
     let eff = st.effects;
-    let x = live(a.x, n)?;
+    let x = live(a.x, c.n)?;
     let elastic = membrane::elastic_energy(
         live(a.triangles, c.nt)?,
         live(a.elements, c.nt)?,
@@ -56,7 +59,14 @@ pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, 
     } else {
         (0.0, 0.0)
     };
-    let kinetic = kinetic(live(a.mass, n)?, live(a.v, n)?);
+    Ok((elastic, bending, bending_noise))
+}
+
+/// Kinetic + elastic + bending energy of the current state, with a bound on its `f32`
+/// round-off.
+pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, StepError> {
+    let (elastic, bending, bending_noise) = shape_energy(a, c, st)?;
+    let kinetic = kinetic(live(a.mass, c.n)?, live(a.v, c.n)?);
     Ok(Level {
         energy: kinetic + elastic + bending,
         // Element strains are f32 differences of positions: ~1e-6 relative on the energy of
@@ -68,20 +78,25 @@ pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, 
 /// Elastic + bending energy and the gravitational potential `−Σ m g·x` (J) of the current
 /// positions: what a change of positions alone changes.
 pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<f64, StepError> {
-    let level = level(a, c, st)?;
-    let mass = live(a.mass, c.n)?;
-    let kinetic = kinetic(mass, live(a.v, c.n)?);
-    let gravity = if st.effects & effects::GRAVITY != 0 {
-        let g = Vec3A::from(st.gravity);
-        -mass
-            .iter()
-            .zip(live(a.x, c.n)?)
-            .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
-            .sum::<f64>()
-    } else {
-        0.0
-    };
-    Ok(level.energy - kinetic + gravity)
+    let (elastic, bending, _) = shape_energy(a, c, st)?;
+    Ok(elastic + bending + gravity_potential(a, c, st)?)
+}
+
+/// The gravitational potential `−Σ m g·x` (J), zero without gravity.
+pub(crate) fn gravity_potential(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+) -> Result<f64, StepError> {
+    if st.effects & effects::GRAVITY == 0 {
+        return Ok(0.0);
+    }
+    let g = Vec3A::from(st.gravity);
+    Ok(-live(a.mass, c.n)?
+        .iter()
+        .zip(live(a.x, c.n)?)
+        .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
+        .sum::<f64>())
 }
 
 /// `Σ ½ m |v|²` (J).

@@ -28,14 +28,12 @@ use glam::Quat;
 
 use glam::Vec3A;
 
-use crate::bending;
 use crate::blob::Blob;
 use crate::collide::{Collider, Shape};
 use crate::membrane;
 use crate::mesh;
 use crate::multigrid;
 use crate::normals;
-use crate::sparse::Pattern;
 use crate::step::{self, monitor};
 use crate::strided::Strided;
 
@@ -654,42 +652,19 @@ impl<'a> World<'a> {
     /// The cloth's mechanical energy (J): kinetic, elastic (as the step's own forces see it),
     /// bending and gravitational (if on).
     pub fn energy(&mut self) -> Energy {
-        let n = self.n;
-        let eff = self.settings.effects;
-        let a = &self.a;
-        let elastic = membrane::elastic_energy(
-            prefix(a.triangles, self.nt),
-            prefix(a.elements, self.nt),
-            prefix(a.x, n),
-            step::forces::membrane_strain(eff & effects::WARPING != 0),
-        )
-        .unwrap_or(0.0);
-        let bending = if eff & effects::BENDING != 0 {
-            let pattern = Pattern {
-                row_start: prefix(a.row_start, n + 1),
-                cols: prefix(a.cols, self.nnz),
-            };
-            bending::energy(&pattern, prefix(a.q_off, self.nnz), prefix(a.x, n))
-        } else {
-            0.0
+        // The same sums the step's energy balance uses; a world's counts always fit its
+        // arrays, so the fallback (no energy) is never taken.
+        let (a, c, st) = (&self.a, self.counts(), &self.settings);
+        let parts = || -> Result<Energy, StepError> {
+            let (elastic, bending, _) = monitor::shape_energy(a, &c, st)?;
+            Ok(Energy {
+                kinetic: monitor::kinetic(prefix(a.mass, c.n), prefix(a.v, c.n)),
+                elastic,
+                bending,
+                gravity: monitor::gravity_potential(a, &c, st)?,
+            })
         };
-        let kinetic = monitor::kinetic(prefix(a.mass, n), prefix(a.v, n));
-        let gravity = if eff & effects::GRAVITY != 0 {
-            let g = Vec3A::from(self.settings.gravity);
-            -prefix(a.mass, n)
-                .iter()
-                .zip(prefix(a.x, n))
-                .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
-                .sum::<f64>()
-        } else {
-            0.0
-        };
-        Energy {
-            kinetic,
-            elastic,
-            bending,
-            gravity,
-        }
+        parts().unwrap_or_default()
     }
 
     /// Vertex normals (and, for per-node warping, the rotations) of the current positions.
