@@ -11,7 +11,8 @@
  * - the cloth settles and goes to sleep, and an edit wakes it;
  * - localization: a render mesh three times finer than the cloth, in its own interleaved
  *   buffer (33-byte vertices: flag, position, normal, (u, v)), is bound once from the (u, v)
- *   in that buffer and localized into it every frame, in two ranges as two jobs would;
+ *   in that buffer and localized into it every frame, in two ranges as two jobs would, kept
+ *   outside the colliders;
  * - errors: a corrupt, a truncated and a foreign blob, a bad mesh, a too-small capacity, an
  *   uninitialized def, a NULL argument, and localization's own: each is reported with its
  *   detail;
@@ -241,6 +242,9 @@ static WeftLocalizeOutput fine_output(uint32_t first)
     out.normals = fine_buffer + (size_t)first * FSTRIDE + FNRM_AT;
     out.normal_stride = FSTRIDE;
     out.normal_mode = WEFT_NORMALS_BLENDED;
+    /* The render mesh stays outside the sphere and the capsule the cloth drapes over (between
+     * the cloth's vertices it would otherwise cut into them). */
+    out.collider_mode = WEFT_COLLIDERS_OUTSIDE;
     return out;
 }
 
@@ -294,6 +298,12 @@ static void localize_errors(const WeftWorld *world)
     expect("overlapping normals",
            weft_localize(world, frames, bindings, sizeof bindings, 0, FVERTS, &out, &d),
            WEFT_RESULT_NORMAL_LAYOUT, &d);
+    /* An unknown collider mode. */
+    out = fine_output(0);
+    out.collider_mode = 7;
+    expect("collider mode",
+           weft_localize(world, frames, bindings, sizeof bindings, 0, FVERTS, &out, &d),
+           WEFT_RESULT_INVALID_ARGUMENT, &d);
     /* An unknown strain measure. */
     expect("strain measure", weft_localize_prepare(world, 7, frames, sizeof frames, &d),
            WEFT_RESULT_INVALID_ARGUMENT, &d);

@@ -5,7 +5,10 @@
 //! Run with `cargo run --release --example bench_localize`. Prints the one-off costs (tiled
 //! mesh, bind) and, per frame, the median over samples of `prepare` and of `localize` into a
 //! 32-byte interleaved vertex buffer (position, normal, uv), positions only and with blended
-//! normals, plus the exact normals recomputed from the fine mesh, in fine vertices per second.
+//! normals, plus the exact normals recomputed from the fine mesh, in fine vertices per second;
+//! then positions kept outside a sphere (`localize_colliding`) that the cloth lies on (the
+//! demo's cloth over a sphere: a cap of the fine mesh cuts into it) and a floor below, against
+//! the plain call.
 //!
 //! Times are the thread's CPU time (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)` on Linux, the wall
 //! clock elsewhere), so that time spent preempted on a busy machine does not count; the
@@ -19,9 +22,10 @@ fn main() {
 
     use glam::{Mat3A, Vec3A};
     use weft::blob::{AlignedBytes, Blob};
+    use weft::collide::{Collider, ColliderSet, Shape};
     use weft::localize::{
-        bind, localize, prepare, recompute_normals, tiled_mesh, tiled_mesh_counts, Binding,
-        NormalTarget, StrainMeasure, VertexFrame,
+        bind, localize, localize_colliding, prepare, recompute_normals, tiled_mesh,
+        tiled_mesh_counts, Binding, Coarse, NormalTarget, StrainMeasure, VertexFrame,
     };
     use weft::mesh;
     use weft::strided::{Strided, StridedMut};
@@ -194,6 +198,58 @@ fn main() {
         .expect("normals");
     });
     report("recompute_normals (exact, from the fine mesh)", t);
+
+    // Colliders: a sphere under the middle of the cloth whose top cuts 1 cm through it, and a
+    // floor 0.5 m below that no vertex reaches.
+    let mid = (n / 2) * n + n / 2;
+    let (top, up) = (frames[mid].p, frames[mid].normal);
+    let radius = 0.1;
+    let sphere = Shape::Sphere {
+        center: top - up * (radius - 0.01),
+        radius,
+    };
+    let floor = Shape::Plane {
+        normal: Vec3A::Z,
+        offset: top.z - 0.5,
+    };
+    let coarse = Coarse {
+        frames: &frames,
+        triangles: world.triangles(),
+    };
+    let plain = {
+        let mut pos = StridedMut::from_slice(&mut packed);
+        localize(&frames, world.triangles(), &bindings, 0, &mut pos, None).expect("localize");
+        packed.clone()
+    };
+    for (label, colliders) in [
+        ("localize positions, packed, no colliders", &[][..]),
+        (
+            "  outside a floor (none inside)",
+            &[Collider::new(floor, 0.5, 0.003)][..],
+        ),
+        (
+            "  outside a sphere (a cap inside)",
+            &[Collider::new(sphere, 0.5, 0.003)][..],
+        ),
+        (
+            "  outside the sphere and the floor",
+            &[
+                Collider::new(sphere, 0.5, 0.003),
+                Collider::new(floor, 0.5, 0.003),
+            ][..],
+        ),
+    ] {
+        let t = time(reps, &mut || {
+            let mut pos = StridedMut::from_slice(&mut packed);
+            let set = ColliderSet::new(colliders);
+            localize_colliding(coarse, black_box(&bindings), 0, &mut pos, None, set)
+                .expect("localize");
+            black_box(&mut pos);
+        });
+        let moved = packed.iter().zip(&plain).filter(|(a, b)| a != b).count();
+        report(label, t);
+        println!("{:<52} {moved} vertices pushed", "");
+    }
 }
 
 /// CPU time of the calling thread (the bench's only platform call; the library has none).

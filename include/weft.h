@@ -233,6 +233,25 @@
 #define WEFT_NORMALS_RECOMPUTED 1
 
 /**
+ * `WeftLocalizeOutput.collider_mode`: colliders play no part in localization (the default,
+ * at no cost). Between the coarse vertices, which the step keeps outside the colliders, the
+ * fine surface can then cut into a collider the coarse cloth wraps (centimetres into a pole
+ * or a leg at a coarse spacing of 7–12 cm).
+ */
+#define WEFT_COLLIDERS_IGNORED 0
+
+/**
+ * `WeftLocalizeOutput.collider_mode`: each fine vertex that ends inside one of the world's
+ * colliders (their shapes as last set, kept at their thickness) is pushed out along its
+ * blended coarse normal (along the collider's own normal where the two meet at a grazing
+ * angle), one collider after the other. The push depends on the vertex's position and normal
+ * only, so vertices shared across coarse triangles, ranges or seams stay together (no
+ * cracks); vertices outside every collider are written exactly as with
+ * `WEFT_COLLIDERS_IGNORED`. Cost: a distance query per vertex and collider.
+ */
+#define WEFT_COLLIDERS_OUTSIDE 1
+
+/**
  * Bytes at the start of a bindings block: its vertex count and a key of the cloth (mesh, rest
  * (u, v), materials and blob) it was made for. Part of every `weft_bind_memory_size` result.
  */
@@ -1004,6 +1023,11 @@ typedef struct WeftLocalizeOutput {
      */
     uint32_t fine_triangle_count;
     /**
+     * `WEFT_COLLIDERS_IGNORED` (default) or `WEFT_COLLIDERS_OUTSIDE` (fine vertices pushed
+     * out of the world's colliders); anything else is `WEFT_RESULT_INVALID_ARGUMENT`.
+     */
+    uint32_t collider_mode;
+    /**
      * Set by `weft_default_localize_output`; do not touch.
      */
     uint32_t internal_cookie;
@@ -1492,7 +1516,9 @@ WeftResult weft_localize_prepare(const struct WeftWorld *world,
  *
  * Everything is checked before anything is written: on failure no output byte changed.
  * Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
- * core), about 1.3 × that with blended normals, about 6 × with recomputed normals.
+ * core), about 1.3 × that with blended normals, about 6 × with recomputed normals; with
+ * `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
+ * "Measured").
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `frames` a block given to

@@ -69,6 +69,7 @@ impl Shape {
     }
 
     /// Signed distance and outward normal at point `p`.
+    #[inline]
     pub fn proximity(&self, p: Vec3A) -> Proximity {
         match *self {
             Shape::Plane { normal, offset } => Proximity {
@@ -77,14 +78,7 @@ impl Shape {
             },
             Shape::Sphere { center, radius } => sphere_proximity(center, radius, p),
             Shape::Capsule { a, b, radius } => {
-                let ab = b - a;
-                let len2 = ab.length_squared();
-                let t = if len2 > 0.0 {
-                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                sphere_proximity(a + ab * t, radius, p)
+                sphere_proximity(a + (b - a) * segment_param(a, b, p), radius, p)
             }
             Shape::Shell { center, radius } => {
                 let inside = sphere_proximity(center, radius, p);
@@ -93,6 +87,24 @@ impl Shape {
                     normal: -inside.normal,
                 }
             }
+        }
+    }
+
+    /// `proximity(p).distance < thickness`, without the square root and the normal where the
+    /// shape allows (the per-vertex test of collision-aware localization).
+    #[inline]
+    pub fn within(&self, thickness: f32, p: Vec3A) -> bool {
+        match *self {
+            Shape::Plane { normal, offset } => normal.dot(p) - offset < thickness,
+            Shape::Sphere { center, radius } => {
+                let r = radius + thickness;
+                (p - center).length_squared() < r * r
+            }
+            Shape::Capsule { a, b, radius } => {
+                let r = radius + thickness;
+                (p - a - (b - a) * segment_param(a, b, p)).length_squared() < r * r
+            }
+            Shape::Shell { .. } => self.proximity(p).distance < thickness,
         }
     }
 
@@ -180,14 +192,7 @@ impl Shape {
                 (center - c0) + n * (radius - r0)
             }
             (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
-                let ab = b - a;
-                let len2 = ab.length_squared();
-                let t = if len2 > 0.0 {
-                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (a - a0).lerp(b - b0, t)
+                (a - a0).lerp(b - b0, segment_param(a, b, p))
             }
             _ => Vec3A::ZERO,
         };
@@ -195,6 +200,119 @@ impl Shape {
     }
 }
 
+/// Below this cosine between a push's direction and the collider's normal, a push along the
+/// direction would travel far along the surface for little depth (and not at all when
+/// tangent): the vertex goes straight out along the collider's normal instead.
+const MIN_PUSH_COSINE: f32 = 0.25;
+
+/// Newton steps along the push direction before the last correction along the normal: one
+/// ends outside a convex shape (plane, sphere, capsule), the next one or two within
+/// [`PUSH_TOLERANCE`] of its offset surface; a shell's concave inside needs more.
+const PUSH_STEPS: usize = 4;
+
+/// How far past the offset surface (m) a push may end.
+const PUSH_TOLERANCE: f32 = 1e-5;
+
+impl Shape {
+    /// `p` moved out of the offset surface (at distance `thickness`) of the shape along the
+    /// line through `p` with unit direction `direction`, on the side the shape's normal at `p`
+    /// points to (`direction` may point either way); `p` itself when it is not inside.
+    ///
+    /// A pure function of `(p, direction)`, so two copies of a point with the same direction
+    /// land at the same place. The distance along the line is found by Newton's method on the
+    /// signed distance (its slope along the line is the cosine between the line and the
+    /// normal); for a convex shape the signed distance is convex, so the first step already
+    /// ends on or outside the surface and the next ones come back towards it from outside.
+    /// Where the line meets the surface at a grazing angle (cosine below 0.25), or after a
+    /// few steps, what remains is removed along the shape's own normal, so the result is never
+    /// inside.
+    pub fn push_out_along(&self, thickness: f32, p: Vec3A, direction: Vec3A) -> Vec3A {
+        let mut prox = self.proximity(p);
+        if prox.distance >= thickness {
+            return p;
+        }
+        let d = if direction.dot(prox.normal) < 0.0 {
+            -direction
+        } else {
+            direction
+        };
+        let mut q = p;
+        for _ in 0..PUSH_STEPS {
+            let slope = d.dot(prox.normal);
+            if slope.is_nan() || slope < MIN_PUSH_COSINE {
+                break;
+            }
+            q += d * ((thickness - prox.distance) / slope);
+            prox = self.proximity(q);
+            if (thickness..=thickness + PUSH_TOLERANCE).contains(&prox.distance) {
+                return q;
+            }
+        }
+        if prox.distance >= thickness {
+            return q;
+        }
+        q + prox.normal * (thickness - prox.distance)
+    }
+}
+
+/// Colliders, in coordinates whose zero lies at `origin` of the caller's (a world stores its
+/// colliders relative to its own origin: [`crate::world::World::collider_set`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ColliderSet<'c> {
+    pub colliders: &'c [Collider],
+    pub origin: Vec3A,
+}
+
+impl<'c> ColliderSet<'c> {
+    /// Colliders given in the caller's coordinates.
+    pub fn new(colliders: &'c [Collider]) -> Self {
+        ColliderSet {
+            colliders,
+            origin: Vec3A::ZERO,
+        }
+    }
+
+    /// True when `p` (caller's coordinates) is inside the offset surface of any collider: the
+    /// cheap test before a push, which needs a direction.
+    #[inline]
+    pub fn holds(&self, p: Vec3A) -> bool {
+        let local = p - self.origin;
+        self.colliders
+            .iter()
+            .any(|c| c.shape.within(c.thickness, local))
+    }
+
+    /// `p` (caller's coordinates) pushed out of each collider in turn, along `direction`
+    /// ([`Shape::push_out_along`], each collider's own thickness); `p` itself, bit for bit,
+    /// when it is inside none. A point pushed out of one collider into an earlier one stays
+    /// there (one pass, in order).
+    pub fn push_out(&self, p: Vec3A, direction: Vec3A) -> Vec3A {
+        let local = p - self.origin;
+        let mut q = local;
+        for c in self.colliders {
+            q = c.shape.push_out_along(c.thickness, q, direction);
+        }
+        if q == local {
+            p
+        } else {
+            q + self.origin
+        }
+    }
+}
+
+/// The parameter in [0, 1] of the point of segment `a`–`b` nearest to `p`.
+#[inline]
+fn segment_param(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+#[inline]
 fn sphere_proximity(center: Vec3A, radius: f32, p: Vec3A) -> Proximity {
     let d = p - center;
     let len = d.length();
@@ -331,6 +449,76 @@ mod tests {
         let mut v = Vec3A::new(1.0, 0.0, -2.0);
         assert!(!resolve(&plane, Vec3A::ZERO, 0.01, 0.25, &mut x, &mut v));
         assert_eq!(v, Vec3A::new(1.0, 0.0, -2.0));
+    }
+
+    #[test]
+    fn push_out_along_a_direction() {
+        let t = 0.01;
+        let floor = Shape::Plane {
+            normal: Vec3A::Z,
+            offset: 0.0,
+        };
+        // along a slanted direction, either sign: exactly onto the offset plane, along it
+        let d = Vec3A::new(1.0, 0.0, 1.0).normalize();
+        let p = Vec3A::new(0.0, 0.0, -0.1);
+        for dir in [d, -d] {
+            let q = floor.push_out_along(t, p, dir);
+            assert!((q.z - t).abs() < 1e-6, "{q}");
+            assert!((q - p).normalize().cross(d).length() < 1e-6);
+        }
+        // grazing: straight out along the plane's normal instead
+        let q = floor.push_out_along(t, p, Vec3A::new(1.0, 0.0, 0.1).normalize());
+        assert!((q - Vec3A::new(0.0, 0.0, t)).length() < 1e-6, "{q}");
+        // outside: the same point, bit for bit
+        let above = Vec3A::new(0.3, 0.2, 0.5);
+        assert_eq!(floor.push_out_along(t, above, d), above);
+
+        // a sphere, along a line off its centre: outside, along the line
+        let ball = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        };
+        let p = Vec3A::new(0.2, 0.0, 0.8);
+        let q = ball.push_out_along(t, p, Vec3A::Z);
+        let dist = ball.proximity(q).distance;
+        assert!(dist >= t - 1e-6 && dist <= t + PUSH_TOLERANCE, "{dist}");
+        assert!((q - p).normalize().cross(Vec3A::Z).length() < 1e-6);
+        // a shell: pulled back inside along the line
+        let shell = Shape::Shell {
+            center: Vec3A::ZERO,
+            radius: 1.0,
+        };
+        let q = shell.push_out_along(t, Vec3A::new(0.3, 0.0, 1.2), Vec3A::Z);
+        assert!(shell.proximity(q).distance >= t - 1e-6, "{q}");
+        assert!(q.x == 0.3 && q.y == 0.0, "{q}");
+
+        // the cheap inside test agrees with the distance
+        let pole = Shape::Capsule {
+            a: Vec3A::ZERO,
+            b: Vec3A::X,
+            radius: 0.2,
+        };
+        for shape in [floor, ball, shell, pole] {
+            for i in 0..200 {
+                let f = i as f32;
+                let p = Vec3A::new((f * 0.37).sin(), (f * 0.71).cos(), (f * 0.13).sin() * 1.3);
+                let inside = shape.proximity(p).distance < t;
+                assert_eq!(shape.within(t, p), inside, "{shape:?} {p}");
+            }
+        }
+
+        // a set of colliders given relative to an origin: the same push, moved
+        let far = Vec3A::new(1000.0, 0.0, 0.0);
+        let colliders = [Collider::new(ball, 0.0, t)];
+        let set = ColliderSet {
+            colliders: &colliders,
+            origin: far,
+        };
+        let q = set.push_out(p + far, Vec3A::Z) - far;
+        assert!(
+            (q - ball.push_out_along(t, p, Vec3A::Z)).length() < 1e-4,
+            "{q}"
+        );
     }
 
     #[test]

@@ -1096,6 +1096,7 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
 // ---------------------------------------------------------------------------------------------
 
 use glam::Vec3A;
+use weft::collide::{Collider, ColliderSet, Shape};
 use weft::localize::{self, Binding, NormalTarget, StrainMeasure, VertexFrame};
 use weft::strided::{Strided, StridedMut};
 
@@ -1569,6 +1570,65 @@ fn localization_matches_the_kernel_bit_for_bit() {
     assert!(coarse.0[2] < 0.5 - 0.01, "the cloth hangs: {coarse:?}");
 }
 
+/// `WEFT_COLLIDERS_OUTSIDE` pushes the fine vertices out of the world's colliders exactly as
+/// the kernel's `localize_colliding` does; `WEFT_COLLIDERS_IGNORED` is the plain placement.
+#[test]
+fn localization_outside_colliders_matches_the_kernel_bit_for_bit() {
+    let s = scene(7, 0.03, 40);
+    let nv = s.nv() as usize;
+    let tris = s.triangles();
+    let middle = s.positions()[3 * 7 + 3];
+    let mut def = weft_default_collider_def();
+    let [x, y, z] = middle;
+    def.shape = weft_shape_sphere(WeftVec3 { x, y, z }, 0.008);
+    assert_eq!(
+        unsafe { weft_world_add_collider(s.w, &def, ptr::null_mut()) },
+        WeftResult::Ok
+    );
+    let centre = Vec3A::from(middle);
+    let sphere = Shape::Sphere {
+        center: centre,
+        radius: 0.008,
+    };
+    let colliders = [Collider::new(sphere, def.friction, def.thickness)];
+    let kb = s.with_kernel_world(|k, blob| {
+        let mut b = vec![Binding::ZERO; nv];
+        let uv: Vec<[f32; 2]> = s.fine_uv.iter().map(|q| [q.x, q.y]).collect();
+        localize::bind(k, blob, &Strided::from_slice(&uv), &mut b).unwrap();
+        b
+    });
+    let kf = s.kernel_frames(StrainMeasure::Corotated);
+    let coarse = localize::Coarse {
+        frames: &kf,
+        triangles: &tris,
+    };
+    let kernel = |set: ColliderSet<'_>| {
+        let mut kp = vec![[0.0f32; 3]; nv];
+        let mut pos = StridedMut::from_slice(&mut kp);
+        localize::localize_colliding(coarse, &kb, 0, &mut pos, None, set).unwrap();
+        kp
+    };
+    let (bindings, bsize) = s.bind();
+    let mut frames = s.frames(WEFT_STRAIN_COROTATED);
+    let mut through_c = |mode: u32| {
+        let mut p = vec![[f32::NAN; 3]; nv];
+        let mut out = weft_default_localize_output();
+        out.positions = p.as_mut_ptr().cast();
+        out.collider_mode = mode;
+        let (r, d) = localize_into(&s, &mut frames, &bindings, bsize, 0, nv as u32, &out);
+        assert_eq!(r, WeftResult::Ok, "{d:?} {}", what(&d));
+        p
+    };
+    let ignored = through_c(WEFT_COLLIDERS_IGNORED);
+    let outside = through_c(WEFT_COLLIDERS_OUTSIDE);
+    assert_eq!(ignored, kernel(ColliderSet::new(&[])));
+    assert_eq!(outside, kernel(ColliderSet::new(&colliders)));
+    let inside = |p: &[f32; 3]| (Vec3A::from(*p) - centre).length() < 0.008;
+    let pushed = ignored.iter().filter(|p| inside(p)).count();
+    assert!(pushed > 10, "the sphere holds {pushed} fine vertices");
+    assert!(!outside.iter().any(inside));
+}
+
 #[test]
 fn localization_errors_name_their_cause_and_write_nothing() {
     let s = scene(5, 0.02, 5);
@@ -1830,6 +1890,14 @@ fn localization_errors_name_their_cause_and_write_nothing() {
             WeftResult::InvalidArgument,
             Box::new(|d| {
                 let o = with(&|o| o.normal_mode = 2);
+                call(s.w, fr, bp, bsize, 0, nv, &o, d)
+            }),
+        ),
+        (
+            "output.collider_mode",
+            WeftResult::InvalidArgument,
+            Box::new(|d| {
+                let o = with(&|o| o.collider_mode = 2);
                 call(s.w, fr, bp, bsize, 0, nv, &o, d)
             }),
         ),

@@ -13,11 +13,12 @@ use bytemuck::Zeroable;
 use common::*;
 use glam::{Mat3A, Vec3A};
 use weft::blob::{AlignedBytes, Blob};
+use weft::collide::ColliderSet;
 use weft::collide::{Collider, Shape};
 use weft::localize::{
-    bind, bind_to_triangle, bindings_needed, blocks, localize, localize_recomputed, prepare,
-    prepare_mesh, recompute_normals, tiled_mesh, tiled_mesh_counts, BindError, Binding,
-    LocalizeError, NormalTarget, StrainMeasure, VertexFrame,
+    bind, bind_to_triangle, bindings_needed, blocks, localize, localize_colliding,
+    localize_recomputed, prepare, prepare_mesh, recompute_normals, tiled_mesh, tiled_mesh_counts,
+    BindError, Binding, Coarse, LocalizeError, NormalTarget, StrainMeasure, VertexFrame,
 };
 use weft::strided::{StrideError, Strided, StridedMut};
 use weft::world::{Materials, Settings, World};
@@ -554,6 +555,166 @@ fn no_cracks_on_a_draped_collided_cloth() {
         naive > 10.0 * 1e-6 * size,
         "the check cannot see cracks ({naive})"
     );
+}
+
+// ----- the fine mesh outside colliders -----
+
+/// Localizes with the colliders of `w` (every binding, positions only).
+fn run_outside(w: &World<'_>, frames: &[VertexFrame], b: &[Binding]) -> Vec<[f32; 3]> {
+    let mut out = vec![[f32::NAN; 3]; b.len()];
+    let coarse = Coarse {
+        frames,
+        triangles: w.triangles(),
+    };
+    let mut pos = StridedMut::from_slice(&mut out);
+    localize_colliding(coarse, b, 0, &mut pos, None, w.collider_set()).unwrap();
+    out
+}
+
+/// The lowest signed distance of `x` to the offset surfaces of `w`'s colliders (negative:
+/// inside by that much).
+fn clearance(w: &World<'_>, x: [f32; 3]) -> f32 {
+    (0..w.collider_count() as u32)
+        .map(|i| w.collider(i).unwrap())
+        .map(|c| c.shape.proximity(Vec3A::from(x)).distance - c.thickness)
+        .fold(f32::MAX, f32::min)
+}
+
+/// A coarse cloth of spacing `spacing` (the `stripes` laminate) wrapped over a collider as a
+/// drape would leave it: its vertices lie on the collider's offset surface (`surface`, which
+/// maps a vertex's (u, v) offset from the cloth's centre to its position) and hang straight
+/// down past it. Its localized fine mesh (a lattice of 101 × 101 points) cuts centimetres into
+/// the collider; localized with the collider it is outside everywhere, crack-free (each point
+/// shared by coarse triangles localized from each), and unchanged wherever it was outside.
+fn wrapped_cloth_stays_outside(
+    n: [usize; 2],
+    spacing: f32,
+    collider: Collider,
+    surface: impl Fn(f32, f32) -> [f32; 3],
+) {
+    let blob = blob();
+    let size = [(n[0] - 1) as f32 * spacing, (n[1] - 1) as f32 * spacing];
+    let mut sheet = Sheet::grid(n[0], n[1], size[0], size[1]);
+    for (p, q) in sheet.positions.iter_mut().zip(&sheet.uvs) {
+        *p = surface(q[0] - 0.5 * size[0], q[1] - 0.5 * size[1]);
+    }
+    let mut mem = memory(&sheet.capacity());
+    let mut w = blob_world(&mut mem, &sheet, &blob, Settings::default());
+    w.add_collider(collider).unwrap();
+    for &p in w.positions() {
+        assert!(
+            clearance(&w, p.to_array()) > -1e-5,
+            "a coarse vertex is inside"
+        );
+    }
+    let pts = lattice_owners(&w, 100);
+    let uv: Vec<[f32; 2]> = pts.iter().map(|p| p.0).collect();
+    let b = bind_all(&w, &blob, &uv);
+    let frames = frames_of(&w, StrainMeasure::Corotated);
+
+    let plain = run(&frames, w.triangles(), &b);
+    let deepest = plain.iter().map(|&x| clearance(&w, x)).fold(0.0, f32::min);
+    eprintln!(
+        "{:?}: plain localization {deepest} m inside",
+        collider.shape
+    );
+    assert!(deepest < -0.01, "the test cannot see the cut ({deepest})");
+
+    let outside = run_outside(&w, &frames, &b);
+    let worst = outside
+        .iter()
+        .map(|&x| clearance(&w, x))
+        .fold(0.0, f32::min);
+    eprintln!(
+        "{:?}: colliding localization {worst} m inside",
+        collider.shape
+    );
+    assert!(worst > -1e-5, "a fine vertex is {worst} m inside");
+    for (x, p) in outside.iter().zip(&plain) {
+        if clearance(&w, *p) >= 0.0 {
+            assert_eq!(x, p, "a vertex outside was moved");
+        } else {
+            let c = clearance(&w, *x);
+            assert!(c < 1e-4, "a vertex was pushed {c} m beyond the thickness");
+        }
+    }
+
+    // Shared points localized from each of their coarse triangles land together.
+    let mut gap = 0.0f32;
+    for (q, owners) in pts.iter().filter(|p| p.1.len() > 1) {
+        let b: Vec<Binding> = owners
+            .iter()
+            .map(|&t| bind_to_triangle(&w, &blob, t, *q).unwrap())
+            .collect();
+        let x = run_outside(&w, &frames, &b);
+        for p in &x[1..] {
+            gap = gap.max(dist(*p, x[0]));
+        }
+    }
+    eprintln!("{:?}: largest gap {gap} m", collider.shape);
+    assert!(gap <= 1e-6 * size[0], "crack of {gap} m");
+
+    // With no colliders the colliding call is the plain one, bit for bit.
+    let mut none = vec![[f32::NAN; 3]; b.len()];
+    let coarse = Coarse {
+        frames: &frames,
+        triangles: w.triangles(),
+    };
+    let mut pos = StridedMut::from_slice(&mut none);
+    localize_colliding(coarse, &b, 0, &mut pos, None, ColliderSet::new(&[])).unwrap();
+    assert_eq!(none, plain);
+}
+
+/// Where a cloth draped over a cylinder of radius `r` (axis along y through the origin) puts
+/// the point `s` along the cloth across the axis (0 on top): on the cylinder while it wraps
+/// it, then straight down.
+fn over_cylinder(s: f32, r: f32) -> [f32; 2] {
+    let quarter = 0.5 * std::f32::consts::PI * r;
+    if s.abs() <= quarter {
+        [r * (s / r).sin(), r * (s / r).cos()]
+    } else {
+        [r * s.signum(), quarter - s.abs()]
+    }
+}
+
+/// A pole (a 4 cm capsule) under a cloth of 10 cm spacing: the fine mesh between the vertex
+/// on top and the hanging ones would be 1.6 cm inside.
+#[test]
+fn fine_mesh_stays_outside_a_pole_the_coarse_cloth_wraps() {
+    let (radius, thickness) = (0.04f32, 0.005f32);
+    let pole = Shape::Capsule {
+        a: Vec3A::new(0.0, -1.0, 0.0),
+        b: Vec3A::new(0.0, 1.0, 0.0),
+        radius,
+    };
+    let r = radius + thickness;
+    wrapped_cloth_stays_outside([9, 5], 0.1, Collider::new(pole, 0.5, thickness), |s, y| {
+        let [x, z] = over_cylinder(s, r);
+        [x, y, z]
+    });
+}
+
+/// A 6 cm sphere under a cloth of 10 cm spacing, its vertices placed by the distance from the
+/// top along the cloth (wrapped on the sphere, then hanging).
+#[test]
+fn fine_mesh_stays_outside_a_sphere_the_coarse_cloth_wraps() {
+    let (radius, thickness) = (0.06f32, 0.003f32);
+    let sphere = Shape::Sphere {
+        center: Vec3A::ZERO,
+        radius,
+    };
+    let r = radius + thickness;
+    let collider = Collider::new(sphere, 0.5, thickness);
+    wrapped_cloth_stays_outside([7, 7], 0.1, collider, |su, sv| {
+        let s = (su * su + sv * sv).sqrt();
+        let [out, z] = over_cylinder(s, r);
+        let dir = if s > 0.0 {
+            [su / s, sv / s]
+        } else {
+            [0.0, 0.0]
+        };
+        [out * dir[0], out * dir[1], z]
+    });
 }
 
 // ----- binding errors -----

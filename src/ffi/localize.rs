@@ -11,9 +11,12 @@ use super::convert::*;
 use super::result::{fault, invalid, null, Fault, FfiResult};
 use super::types::*;
 use super::*;
+use crate::collide::ColliderSet;
 use crate::localize::blocks::{self, BlockError, FramesHeader};
 use crate::localize::VertexFrame;
-use crate::localize::{self, BindError, Binding, LocalizeError, NormalTarget, StrainMeasure};
+use crate::localize::{
+    self, BindError, Binding, Coarse, LocalizeError, NormalTarget, StrainMeasure,
+};
 use crate::strided::StridedMut;
 
 /// A kernel block error as a detail, for the bindings block `weft_bind` writes.
@@ -113,6 +116,7 @@ pub extern "C" fn weft_default_localize_output() -> WeftLocalizeOutput {
         normal_mode: WEFT_NORMALS_BLENDED,
         fine_indices: ptr::null(),
         fine_triangle_count: 0,
+        collider_mode: WEFT_COLLIDERS_IGNORED,
         internal_cookie: LOCALIZE_OUTPUT_COOKIE,
     }
 }
@@ -333,7 +337,9 @@ pub unsafe extern "C" fn weft_localize_prepare(
 ///
 /// Everything is checked before anything is written: on failure no output byte changed.
 /// Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
-/// core), about 1.3 × that with blended normals, about 6 × with recomputed normals.
+/// core), about 1.3 × that with blended normals, about 6 × with recomputed normals; with
+/// `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
+/// "Measured").
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `frames` a block given to
@@ -384,6 +390,11 @@ unsafe fn localize_checked(
         WEFT_NORMALS_BLENDED => false,
         WEFT_NORMALS_RECOMPUTED => true,
         _ => return Err(invalid(c"output.normal_mode")),
+    };
+    let colliders = match o.collider_mode {
+        WEFT_COLLIDERS_IGNORED => ColliderSet::new(&[]),
+        WEFT_COLLIDERS_OUTSIDE => w.world.collider_set(),
+        _ => return Err(invalid(c"output.collider_mode")),
     };
     // SAFETY: forwarded contract.
     let frames = unsafe { frames_at(frames, w) }?;
@@ -461,7 +472,11 @@ unsafe fn localize_checked(
     fn internal<E>(_: E) -> Fault {
         fault(WeftResult::Internal).what(c"localize")
     }
-    let (tris, first) = (w.world.triangles(), first as usize);
+    let coarse = Coarse {
+        frames,
+        triangles: w.world.triangles(),
+    };
+    let first = first as usize;
     if n == 0 {
         // Nothing to write, and the buffers may be NULL; the kernel still checks the range and
         // any fine triangles (which cannot name a vertex of an empty range).
@@ -471,9 +486,11 @@ unsafe fn localize_checked(
         );
         return if normals && recompute {
             let target = NormalTarget::Buffer(&mut nrm);
-            localize::localize_recomputed(frames, tris, all, first, &mut pos, fine, target)
+            localize::localize_recomputed_colliding(
+                coarse, all, first, &mut pos, fine, target, colliders,
+            )
         } else {
-            localize::localize(frames, tris, all, first, &mut pos, None)
+            localize::localize_colliding(coarse, all, first, &mut pos, None, colliders)
         }
         .map_err(kernel_fault);
     }
@@ -485,7 +502,8 @@ unsafe fn localize_checked(
         // SAFETY: writable for the extent per the contract, disjoint from the inputs.
         let mut pos =
             unsafe { strided_out::<3>(pp, n, ps, c"output.positions", c"output.position_stride") }?;
-        return localize::localize(frames, tris, all, first, &mut pos, None).map_err(kernel_fault);
+        return localize::localize_colliding(coarse, all, first, &mut pos, None, colliders)
+            .map_err(kernel_fault);
     }
     let ne = strided_extent(n, ns, 12).ok_or(invalid(c"output.normal_stride"))?;
     let n_end = (np as usize)
@@ -503,9 +521,11 @@ unsafe fn localize_checked(
         };
         let target = NormalTarget::Buffer(&mut nrm);
         return if recompute {
-            localize::localize_recomputed(frames, tris, all, first, &mut pos, fine, target)
+            localize::localize_recomputed_colliding(
+                coarse, all, first, &mut pos, fine, target, colliders,
+            )
         } else {
-            localize::localize(frames, tris, all, first, &mut pos, Some(target))
+            localize::localize_colliding(coarse, all, first, &mut pos, Some(target), colliders)
         }
         .map_err(kernel_fault);
     }
@@ -524,9 +544,11 @@ unsafe fn localize_checked(
     let mut pos = StridedMut::<3>::with_offset(bytes, ps, po, n).map_err(layout)?;
     let target = NormalTarget::Interleaved { offset: no };
     if recompute {
-        localize::localize_recomputed(frames, tris, all, first, &mut pos, fine, target)
+        localize::localize_recomputed_colliding(
+            coarse, all, first, &mut pos, fine, target, colliders,
+        )
     } else {
-        localize::localize(frames, tris, all, first, &mut pos, Some(target))
+        localize::localize_colliding(coarse, all, first, &mut pos, Some(target), colliders)
     }
     .map_err(kernel_fault)
 }

@@ -149,6 +149,20 @@ pub const WEFT_NORMALS_BLENDED: u32 = 0;
 /// cost of positions alone.
 pub const WEFT_NORMALS_RECOMPUTED: u32 = 1;
 
+/// `WeftLocalizeOutput.collider_mode`: colliders play no part in localization (the default,
+/// at no cost). Between the coarse vertices, which the step keeps outside the colliders, the
+/// fine surface can then cut into a collider the coarse cloth wraps (centimetres into a pole
+/// or a leg at a coarse spacing of 7–12 cm).
+pub const WEFT_COLLIDERS_IGNORED: u32 = 0;
+/// `WeftLocalizeOutput.collider_mode`: each fine vertex that ends inside one of the world's
+/// colliders (their shapes as last set, kept at their thickness) is pushed out along its
+/// blended coarse normal (along the collider's own normal where the two meet at a grazing
+/// angle), one collider after the other. The push depends on the vertex's position and normal
+/// only, so vertices shared across coarse triangles, ranges or seams stay together (no
+/// cracks); vertices outside every collider are written exactly as with
+/// `WEFT_COLLIDERS_IGNORED`. Cost: a distance query per vertex and collider.
+pub const WEFT_COLLIDERS_OUTSIDE: u32 = 1;
+
 /// Bytes at the start of a bindings block: its vertex count and a key of the cloth (mesh, rest
 /// (u, v), materials and blob) it was made for. Part of every `weft_bind_memory_size` result.
 pub const WEFT_BIND_HEADER_SIZE: usize = 16;

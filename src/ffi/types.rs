@@ -263,6 +263,9 @@ pub struct WeftLocalizeOutput {
     pub fine_indices: *const u32,
     /// Number of triangles at `fine_indices`. Default 0.
     pub fine_triangle_count: u32,
+    /// `WEFT_COLLIDERS_IGNORED` (default) or `WEFT_COLLIDERS_OUTSIDE` (fine vertices pushed
+    /// out of the world's colliders); anything else is `WEFT_RESULT_INVALID_ARGUMENT`.
+    pub collider_mode: u32,
     /// Set by `weft_default_localize_output`; do not touch.
     pub internal_cookie: u32,
 }

@@ -65,6 +65,7 @@ use core::fmt;
 
 use glam::Vec3A;
 
+use crate::collide::ColliderSet;
 use crate::strided::{self, StridedMut};
 use crate::world::World;
 
@@ -396,8 +397,48 @@ pub fn localize(
     positions: &mut StridedMut<'_, 3>,
     normals: Option<NormalTarget<'_, '_>>,
 ) -> Result<(), LocalizeError> {
-    let range = checked_range(frames, triangles, bindings, first, positions.count())?;
-    write_localized(frames, triangles, range, first, positions, normals)
+    let coarse = Coarse { frames, triangles };
+    localize_colliding(
+        coarse,
+        bindings,
+        first,
+        positions,
+        normals,
+        ColliderSet::new(&[]),
+    )
+}
+
+/// [`localize`], each fine vertex then pushed out of `colliders` along its blended coarse
+/// normal to the collider's thickness ([`ColliderSet::push_out`]): the fine surface no longer
+/// cuts into a pole or a leg that the coarse cloth, whose vertices alone touch the collider,
+/// wraps. The push is a function of the vertex's position and blended normal only, which are
+/// continuous across coarse edges, so the fine mesh stays crack-free. Empty `colliders` is
+/// [`localize`] exactly, at its cost; otherwise each collider adds a proximity query per
+/// vertex (README, "Measured").
+pub fn localize_colliding(
+    coarse: Coarse<'_>,
+    bindings: &[Binding],
+    first: usize,
+    positions: &mut StridedMut<'_, 3>,
+    normals: Option<NormalTarget<'_, '_>>,
+    colliders: ColliderSet<'_>,
+) -> Result<(), LocalizeError> {
+    let range = checked_range(coarse, bindings, first, positions.count())?;
+    if colliders.colliders.is_empty() {
+        // the plain placement's loop, compiled apart: no per-vertex test
+        write_placed(coarse, range, first, positions, normals, position)
+    } else {
+        // (the normal is blended only for the few vertices that need a push)
+        let outside = |c: [&VertexFrame; 3], b: &Binding| {
+            let x = position(c, b);
+            if colliders.holds(x) {
+                colliders.push_out(x, normal(c, b))
+            } else {
+                x
+            }
+        };
+        write_placed(coarse, range, first, positions, normals, outside)
+    }
 }
 
 /// [`localize`], then [`recompute_normals`] from the fine triangles `fine_triangles` (indices
@@ -412,7 +453,30 @@ pub fn localize_recomputed(
     fine_triangles: &[[u32; 3]],
     normals: NormalTarget<'_, '_>,
 ) -> Result<(), LocalizeError> {
-    let range = checked_range(frames, triangles, bindings, first, positions.count())?;
+    let coarse = Coarse { frames, triangles };
+    let none = ColliderSet::new(&[]);
+    localize_recomputed_colliding(
+        coarse,
+        bindings,
+        first,
+        positions,
+        fine_triangles,
+        normals,
+        none,
+    )
+}
+
+/// [`localize_recomputed`] with the fine vertices pushed out of `colliders` (as
+/// [`localize_colliding`]) before their normals are recomputed.
+pub fn localize_recomputed_colliding(
+    coarse: Coarse<'_>,
+    bindings: &[Binding],
+    first: usize,
+    positions: &mut StridedMut<'_, 3>,
+    fine_triangles: &[[u32; 3]],
+    normals: NormalTarget<'_, '_>,
+    colliders: ColliderSet<'_>,
+) -> Result<(), LocalizeError> {
     check_fine_triangles(fine_triangles, positions.count())?;
     let (bytes, stride, po, count) = positions.parts_mut();
     match &normals {
@@ -427,15 +491,15 @@ pub fn localize_recomputed(
         }
         NormalTarget::Buffer(_) => {}
     }
-    write_localized(frames, triangles, range, first, positions, None)?;
+    // (checks the range before it writes anything)
+    localize_colliding(coarse, bindings, first, positions, None, colliders)?;
     recompute_normals(fine_triangles, positions, normals)
 }
 
-/// `bindings[first .. first + count]`, each of which names a coarse triangle of `triangles`
-/// whose corners have frames.
+/// `bindings[first .. first + count]`, each of which names a coarse triangle whose corners
+/// have frames.
 fn checked_range<'b>(
-    frames: &[VertexFrame],
-    triangles: &[[u32; 3]],
+    coarse: Coarse<'_>,
     bindings: &'b [Binding],
     first: usize,
     count: usize,
@@ -449,7 +513,7 @@ fn checked_range<'b>(
     let bindings = bindings.get(first..end).ok_or(range)?;
     if let Some(i) = bindings
         .iter()
-        .position(|b| corners(frames, triangles, b).is_none())
+        .position(|b| corners(coarse.frames, coarse.triangles, b).is_none())
     {
         return Err(LocalizeError::BadBinding { index: first + i });
     }
@@ -467,15 +531,25 @@ fn check_fine_triangles(fine_triangles: &[[u32; 3]], n: usize) -> Result<(), Loc
     }
 }
 
-/// The writing half of [`localize`], on a range [`checked_range`] accepted.
-fn write_localized(
-    frames: &[VertexFrame],
-    triangles: &[[u32; 3]],
+/// The coarse cloth as localization reads it: the frames of [`prepare`] and the coarse
+/// triangles (`World::triangles()`).
+#[derive(Clone, Copy, Debug)]
+pub struct Coarse<'a> {
+    pub frames: &'a [VertexFrame],
+    pub triangles: &'a [[u32; 3]],
+}
+
+/// Writes `place(corners, binding)` (and the blended normal, if asked) for every binding of a
+/// range [`checked_range`] accepted.
+fn write_placed(
+    coarse: Coarse<'_>,
     bindings: &[Binding],
     first: usize,
     positions: &mut StridedMut<'_, 3>,
     normals: Option<NormalTarget<'_, '_>>,
+    place: impl Fn([&VertexFrame; 3], &Binding) -> Vec3A,
 ) -> Result<(), LocalizeError> {
+    let Coarse { frames, triangles } = coarse;
     let count = positions.count();
     let (bytes, stride, po, _) = positions.parts_mut();
     let bad = |i: usize| LocalizeError::BadBinding { index: first + i };
@@ -485,14 +559,14 @@ fn write_localized(
         None => {
             for (i, b) in bindings.iter().enumerate() {
                 let c = corners(frames, triangles, b).ok_or(bad(i))?;
-                put(bytes, po + i * stride, position(c, b));
+                put(bytes, po + i * stride, place(c, b));
             }
         }
         Some(NormalTarget::Interleaved { offset: no }) => {
             check_interleaved(bytes.len(), stride, po, no, count)?;
             for (i, b) in bindings.iter().enumerate() {
                 let c = corners(frames, triangles, b).ok_or(bad(i))?;
-                put(bytes, po + i * stride, position(c, b));
+                put(bytes, po + i * stride, place(c, b));
                 put(bytes, no + i * stride, normal(c, b));
             }
         }
@@ -507,7 +581,7 @@ fn write_localized(
             let records = bytes.chunks_mut(stride).zip(nbytes.chunks_mut(nstride));
             for (i, ((rec, nrec), b)) in records.zip(bindings).enumerate() {
                 let c = corners(frames, triangles, b).ok_or(bad(i))?;
-                put(rec, po, position(c, b));
+                put(rec, po, place(c, b));
                 put(nrec, no, normal(c, b));
             }
         }

@@ -29,7 +29,7 @@ use glam::Quat;
 use glam::Vec3A;
 
 use crate::blob::Blob;
-use crate::collide::{Collider, Shape};
+use crate::collide::{Collider, ColliderSet, Shape};
 use crate::membrane;
 use crate::mesh;
 use crate::multigrid;
@@ -459,6 +459,11 @@ impl<'a> World<'a> {
 
     pub fn collider_count(&self) -> usize {
         self.colliders
+    }
+
+    /// The colliders, for [`crate::localize::localize_colliding`].
+    pub fn collider_set(&self) -> ColliderSet<'_> {
+        ColliderSet::new(prefix(self.a.colliders, self.colliders))
     }
 
     /// Removes all colliders.
