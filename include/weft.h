@@ -194,6 +194,12 @@
 #define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3926560
 
 /**
+ * A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
+ * of this many metres (`weft_world_get_origin`).
+ */
+#define WEFT_ORIGIN_GRID 64.0
+
+/**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
  * split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
  * (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
@@ -976,6 +982,24 @@ typedef struct WeftStepStats {
 } WeftStepStats;
 
 /**
+ * A point or vector in double precision: the world's origin (`weft_world_set_origin`).
+ */
+typedef struct WeftDVec3 {
+    /**
+     * x component.
+     */
+    double x;
+    /**
+     * y component.
+     */
+    double y;
+    /**
+     * z component.
+     */
+    double z;
+} WeftDVec3;
+
+/**
  * Where `weft_localize` writes a range of the fine render mesh. Get one from
  * `weft_default_localize_output()` and edit it (a struct that did not come from there is
  * `WEFT_RESULT_UNINITIALIZED`). Only read during the call.
@@ -1279,7 +1303,8 @@ uint32_t weft_world_vertex_count(const struct WeftWorld *world);
 uint32_t weft_world_triangle_count(const struct WeftWorld *world);
 
 /**
- * Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
+ * Copies the world's vertex positions (metres, in the caller's coordinates: see
+ * `weft_world_set_origin`) out: vertex i's 3 floats to byte
  * `i * stride` of `out`, written unaligned (so straight into an interleaved vertex buffer).
  * `count` is the capacity of `out` in vertices, ≥ `weft_world_vertex_count`; exactly that
  * many are written. `stride` ≥ 12.
@@ -1396,6 +1421,48 @@ WeftResult weft_world_clear_colliders(struct WeftWorld *world);
  * `world` is a handle from `weft_world_create` (or NULL).
  */
 uint32_t weft_world_collider_count(const struct WeftWorld *world);
+
+/**
+ * The world's origin, in `*out_origin`: the point of your coordinates that the world keeps at
+ * zero of its own single-precision coordinates. A step moves vertices by `x += v * h` in
+ * `float`; at 10 km from zero a `float` resolves only ~1 mm, so slow motion would be rounded
+ * away and a cloth there would never rest. The world therefore simulates relative to an
+ * origin near the cloth, and every position you give or get (the def's positions,
+ * `weft_world_set_positions` / `weft_world_get_positions`, pin targets, collider shapes, and
+ * `weft_localize`'s output) is in your coordinates, converted through double precision, one
+ * rounding each way. At create the origin is the centre of the cloth's bounding box rounded
+ * to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 32 m of zero, where
+ * nothing is converted. Velocities do not depend on it; the gravitational energy is measured
+ * from its height.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out_origin` is writable.
+ */
+WeftResult weft_world_get_origin(const struct WeftWorld *world, struct WeftDVec3 *out_origin);
+
+/**
+ * Moves the world's origin (`weft_world_get_origin`) to `origin`, in your coordinates: e.g.
+ * when the cloth has travelled kilometres from where it was created. Nothing moves in your
+ * coordinates (positions, pins and colliders are re-expressed relative to the new origin, one
+ * rounding each). `WEFT_RESULT_NON_FINITE` (nothing changed) for a non-finite origin or one so
+ * far from the cloth that its coordinates would overflow. Does not wake the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_set_origin(struct WeftWorld *world, struct WeftDVec3 origin);
+
+/**
+ * For an engine that recenters its own coordinates (as Jolt's and PhysX's "shift origin"):
+ * what was at `shift` in your old coordinates is at zero in the new ones, and every later
+ * position you give or get is in the new ones. Nothing in the world moves or is rounded (its
+ * origin changes by `-shift`). `WEFT_RESULT_NON_FINITE` (nothing changed) when the new
+ * origin would not be finite.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_shift_origin(struct WeftWorld *world, struct WeftDVec3 shift);
 
 /**
  * A `WeftLocalizeOutput` with every field at its default: no buffers yet (set `positions`,

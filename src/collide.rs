@@ -13,7 +13,7 @@
 //! that moved since the last step is swept linearly across the substeps, so a fast collider is
 //! seen at every substep instead of jumping over the cloth.
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 
 /// A collider's geometry, in world space (metres).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -105,6 +105,31 @@ impl Shape {
                 (p - a - (b - a) * segment_param(a, b, p)).length_squared() < r * r
             }
             Shape::Shell { .. } => self.proximity(p).distance < thickness,
+        }
+    }
+
+    /// The same shape moved by `by` (for a change of coordinates; in f64, so that a shape
+    /// far from zero moves by one rounding: a plane's offset gains `normal · by`).
+    pub fn translated(&self, by: DVec3) -> Shape {
+        let moved = |p: Vec3A| (p.as_dvec3() + by).as_vec3a();
+        match *self {
+            Shape::Plane { normal, offset } => Shape::Plane {
+                normal,
+                offset: (f64::from(offset) + normal.as_dvec3().dot(by)) as f32,
+            },
+            Shape::Sphere { center, radius } => Shape::Sphere {
+                center: moved(center),
+                radius,
+            },
+            Shape::Capsule { a, b, radius } => Shape::Capsule {
+                a: moved(a),
+                b: moved(b),
+                radius,
+            },
+            Shape::Shell { center, radius } => Shape::Shell {
+                center: moved(center),
+                radius,
+            },
         }
     }
 

@@ -1091,6 +1091,66 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     assert_eq!(unsafe { weft_world_wake(w) }, WeftResult::Ok);
 }
 
+/// A world created 10 km away simulates around the origin it chose; positions in and out are
+/// the caller's; `weft_world_set_origin` and `weft_world_shift_origin` behave as the kernel's
+/// and refuse non-finite origins.
+#[test]
+fn origin_is_chosen_at_create_and_converts_vertex_io() {
+    let mut mesh = Mesh::grid(4, 0.5, 1.0);
+    for p in &mut mesh.positions {
+        p.x += 10_000.0;
+    }
+    let mut block = Block::for_capacity(&small_capacity());
+    let w = live(&mesh, &mut block);
+    let mut o = WeftDVec3::default();
+    assert_eq!(unsafe { weft_world_get_origin(w, &mut o) }, WeftResult::Ok);
+    assert_eq!((o.x, o.y, o.z), (9984.0, 0.0, 0.0));
+    assert_eq!(WEFT_ORIGIN_GRID, 64.0);
+    let get = || {
+        let mut out = vec![WeftVec3::default(); mesh.positions.len()];
+        let n = out.len() as u32;
+        let r = unsafe { weft_world_get_positions(w, out.as_mut_ptr().cast(), n, 12) };
+        assert_eq!(r, WeftResult::Ok);
+        out
+    };
+    assert_eq!(get(), mesh.positions, "the caller's positions, bit for bit");
+    let here = WeftDVec3 {
+        x: 10_000.0,
+        y: 0.0,
+        z: 0.0,
+    };
+    assert_eq!(unsafe { weft_world_set_origin(w, here) }, WeftResult::Ok);
+    assert_eq!(get(), mesh.positions);
+    assert_eq!(unsafe { weft_world_shift_origin(w, here) }, WeftResult::Ok);
+    let shifted: Vec<WeftVec3> = mesh
+        .positions
+        .iter()
+        .map(|p| WeftVec3 {
+            x: p.x - 10_000.0,
+            ..*p
+        })
+        .collect();
+    assert_eq!(get(), shifted);
+    let bad = WeftDVec3 {
+        x: f64::NAN,
+        ..here
+    };
+    assert_eq!(
+        unsafe { weft_world_set_origin(w, bad) },
+        WeftResult::NonFinite
+    );
+    assert_eq!(
+        unsafe { weft_world_shift_origin(w, bad) },
+        WeftResult::NonFinite
+    );
+    assert_eq!(
+        unsafe { weft_world_get_origin(w, ptr::null_mut()) },
+        WeftResult::NullPointer
+    );
+    assert_eq!(unsafe { weft_world_get_origin(w, &mut o) }, WeftResult::Ok);
+    assert_eq!((o.x, o.y, o.z), (0.0, 0.0, 0.0));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Localization
 // ---------------------------------------------------------------------------------------------

@@ -307,7 +307,9 @@ fn a_free_falling_cloth_without_pins() {
     let h = 1.0 / 60.0f64;
     let n = frames as f64;
     let expected = 100.0 - 9.81 * h * h * n * (n + 1.0) / 2.0;
-    let com_z = w.positions().iter().map(|p| p.z as f64).sum::<f64>() / w.vertex_count() as f64;
+    // (positions are relative to the world's origin: z = 128 for a cloth created at z = 100)
+    let local_z = w.positions().iter().map(|p| p.z as f64).sum::<f64>() / w.vertex_count() as f64;
+    let com_z = w.origin().z + local_z;
     assert!(
         (com_z - expected).abs() < 1e-3 * (100.0 - expected),
         "z {com_z} vs {expected}"

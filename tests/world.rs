@@ -629,21 +629,21 @@ fn effects_are_honoured() {
     assert!(diff(&falls, &damped) > 1e-4);
 }
 
+/// `settings` with sleep on and damping that lets a hanging cloth come to rest soon.
+fn sleepy(settings: Settings) -> Settings {
+    Settings {
+        effects: settings.effects | effects::SLEEP,
+        damping_mass: 2.0,
+        ..settings
+    }
+}
+
 #[test]
 fn cloth_at_rest_sleeps_and_wakes() {
     let (sheet, settings) = hanging(8);
     let mats = [anisotropic()];
     let mut mem = memory(&sheet.capacity());
-    let mut w = world(
-        &mut mem,
-        &sheet,
-        &mats,
-        Settings {
-            effects: settings.effects | effects::SLEEP,
-            damping_mass: 2.0,
-            ..settings
-        },
-    );
+    let mut w = world(&mut mem, &sheet, &mats, sleepy(settings));
     let (a, b) = (sheet.index(0, 7), sheet.index(7, 7));
     w.set_pin(a, sheet.positions[a as usize]).unwrap();
     w.set_pin(b, sheet.positions[b as usize]).unwrap();
@@ -1212,4 +1212,149 @@ fn a_soft_heavy_cloth_hanging_from_two_corners_rests() {
         }
     }
     assert!(tail < 0.05, "still moving at {tail} m/s after 20 s");
+}
+
+// ----- far from the origin -----
+
+/// A hanging anisotropic cloth (17×17, 1 m, its vertices exactly representable at 10 km)
+/// pinned at its top corners, one pin swept along x for the first 32 frames, leaning under
+/// tilted gravity on a sphere behind it, translated by `offset` (m): steps it until it sleeps
+/// (at most 2000 frames). Returns its positions in local coordinates shifted back by
+/// `offset - origin` (in f64: the cloth at the origin's coordinates), the frame it fell
+/// asleep and its origin.
+fn translated_hanging_cloth(offset: [f32; 3]) -> (Vec<glam::DVec3>, Option<usize>, glam::DVec3) {
+    let n = 17;
+    let at = |p: [f32; 3]| [p[0] + offset[0], p[1] + offset[1], p[2] + offset[2]];
+    let (mut sheet, settings) = hanging(n);
+    sheet.transform(at);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let tilted = Settings {
+        gravity: [0.0, 4.0, -9.0],
+        ..sleepy(settings)
+    };
+    let mut w = world(&mut mem, &sheet, &mats, tilted);
+    let sphere = Shape::Sphere {
+        center: Vec3A::from(at([0.5, 0.25, 0.5])),
+        radius: 0.25,
+    };
+    w.add_collider(Collider::new(sphere, 0.5, 0.005)).unwrap();
+    let (a, b) = (sheet.index(0, n - 1), sheet.index(n - 1, n - 1));
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    let mut asleep = None;
+    for frame in 0..2000 {
+        if frame <= 32 {
+            let mut t = sheet.positions[b as usize];
+            t[0] -= frame as f32 / 256.0;
+            w.set_pin(b, t).unwrap();
+        }
+        if w.step().unwrap().asleep {
+            asleep = Some(frame);
+            break;
+        }
+    }
+    let back = w.origin() - glam::DVec3::from(offset.map(f64::from));
+    let local = w.positions().iter().map(|x| x.as_dvec3() + back).collect();
+    (local, asleep, w.origin())
+}
+
+/// At 10 km a cloth behaves as at the origin, with its pins and its collider given in the far
+/// coordinates: it comes to rest and sleeps, and it moves exactly as the same cloth 16 m from
+/// zero, whose local coordinates are the same (10,000 m is 16 m past the origin 9,984 m chosen
+/// for it). Against the cloth at zero the difference is what f32 rounding at 16 m instead of
+/// 1 m does to a scene with sticking contacts (~1.6 mm). (Simulated in absolute f32 the far cloth
+/// never slept: slow vertices' moves were rounded away while their velocities stayed.)
+#[test]
+fn a_cloth_10_km_away_rests_and_sleeps_as_at_the_origin() {
+    let (near, near_asleep, near_origin) = translated_hanging_cloth([0.0; 3]);
+    let (near16, near16_asleep, near16_origin) = translated_hanging_cloth([16.0, 0.0, 0.0]);
+    let (far, far_asleep, far_origin) = translated_hanging_cloth([10_000.0, 0.0, 0.0]);
+    assert_eq!(near_origin, glam::DVec3::ZERO);
+    assert_eq!(near16_origin, glam::DVec3::ZERO);
+    assert_eq!(far_origin, glam::DVec3::new(9984.0, 0.0, 0.0));
+    let diff = near
+        .iter()
+        .zip(&far)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
+    eprintln!("asleep at {near_asleep:?} / {near16_asleep:?} / {far_asleep:?}, {diff} m apart");
+    assert!(near_asleep.is_some(), "the cloth at the origin never slept");
+    assert!(far_asleep.is_some(), "the cloth 10 km away never slept");
+    assert_eq!(
+        far, near16,
+        "the far cloth moved otherwise than the near one"
+    );
+    assert_eq!(far_asleep, near16_asleep);
+    assert!(
+        diff < 5e-3,
+        "the far cloth ended {diff} m from the one at zero"
+    );
+}
+
+/// `set_origin` re-expresses the world around a new origin and `shift_origin` follows the
+/// caller's recentering; neither moves anything in the caller's coordinates (but for one
+/// rounding), and localization's frames are in the caller's coordinates.
+#[test]
+fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
+    use glam::DVec3;
+    use weft::localize::{prepare, StrainMeasure, VertexFrame};
+    let (mut sheet, settings) = hanging(5);
+    sheet.transform(|p| [p[0] + 10_000.0, p[1] - 3000.0, p[2] + 200.0]);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    assert_eq!(w.origin(), DVec3::new(9984.0, -3008.0, 192.0));
+    let centre = [10_000.5, -2999.75, 200.5];
+    let sphere = Shape::Sphere {
+        center: Vec3A::from(centre),
+        radius: 0.25,
+    };
+    w.add_collider(Collider::new(sphere, 0.5, 0.005)).unwrap();
+    w.set_pin(0, sheet.positions[0]).unwrap();
+    for _ in 0..10 {
+        w.step().unwrap();
+    }
+    let seen =
+        |w: &World<'_>| -> Vec<[f32; 3]> { w.positions().iter().map(|&x| w.to_world(x)).collect() };
+    let ulp = 1.0 / 1024.0; // of 10 km in f32
+    let close = |a: &[[f32; 3]], b: &[[f32; 3]], shift: f32| {
+        a.iter().zip(b).all(|(p, q)| {
+            (p[0] - shift - q[0]).abs() <= ulp
+                && (p[1] - q[1]).abs() <= ulp
+                && (p[2] - q[2]).abs() <= ulp
+        })
+    };
+    let before = seen(&w);
+    let mut frames = vec![VertexFrame::REST; w.vertex_count()];
+    prepare(&w, StrainMeasure::Corotated, &mut frames).unwrap();
+    for (f, p) in frames.iter().zip(&before) {
+        assert_eq!(f.p.to_array(), *p, "frames are in the caller's coordinates");
+    }
+    let local = w.to_local(centre);
+    assert_eq!(local, Vec3A::new(16.5, 8.25, 8.5));
+    assert!(
+        matches!(w.collider(0).unwrap().shape, Shape::Sphere { center, .. } if center == local)
+    );
+
+    w.set_origin(DVec3::new(10_000.0, -3000.0, 200.0)).unwrap();
+    assert!(close(&before, &seen(&w), 0.0), "set_origin moved the cloth");
+    let Shape::Sphere { center, .. } = w.collider(0).unwrap().shape else {
+        panic!("not a sphere")
+    };
+    assert_eq!(center, Vec3A::new(0.5, 0.25, 0.5));
+    let kept = w.positions().to_vec();
+    w.shift_origin(DVec3::new(10_000.0, 0.0, 0.0)).unwrap();
+    assert_eq!(w.positions(), &kept[..], "shift_origin moved the world");
+    assert_eq!(w.origin(), DVec3::new(0.0, -3000.0, 200.0));
+    assert!(close(&before, &seen(&w), 10_000.0));
+    assert_eq!(
+        w.set_origin(DVec3::NAN),
+        Err(weft::world::EditError::NonFinite)
+    );
+    assert_eq!(
+        w.shift_origin(DVec3::INFINITY),
+        Err(weft::world::EditError::NonFinite)
+    );
+    assert_eq!(w.origin(), DVec3::new(0.0, -3000.0, 200.0));
+    w.step().unwrap();
 }

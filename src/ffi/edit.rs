@@ -2,7 +2,7 @@
 
 use core::ffi::c_void;
 
-use glam::Vec3A;
+use glam::DVec3;
 
 use super::convert::*;
 use super::result::{edit_fault, fault};
@@ -11,6 +11,17 @@ use super::*;
 use crate::collide::Collider;
 use crate::world::{EditError, World};
 
+/// Vertex `i`'s position in the caller's coordinates (the kernel's conversion).
+fn position_out(w: &World<'static>, i: usize) -> Option<[f32; 3]> {
+    w.positions().get(i).map(|&x| w.to_world(x))
+}
+
+fn velocity_out(w: &World<'static>, i: usize) -> Option<[f32; 3]> {
+    w.velocities().get(i).map(|v| v.to_array())
+}
+
+/// Writes `element(world, i)` for every vertex.
+///
 /// # Safety
 /// `out` writable for the strided extent; `world` as [`world_at`].
 unsafe fn get_vec3s(
@@ -18,13 +29,12 @@ unsafe fn get_vec3s(
     out: *mut c_void,
     count: u32,
     stride: usize,
-    which: for<'w> fn(&'w World<'static>) -> &'w [Vec3A],
+    element: fn(&World<'static>, usize) -> Option<[f32; 3]>,
 ) -> WeftResult {
     done((|| {
         // SAFETY: forwarded contract.
         let w = unsafe { world_at(world) }?;
-        let src = which(&w.world);
-        let n = src.len();
+        let n = w.world.vertex_count();
         if (count as usize) < n {
             let mut f = fault(WeftResult::CountMismatch).what(c"count");
             f.needed = n as u32;
@@ -32,12 +42,15 @@ unsafe fn get_vec3s(
         }
         // SAFETY: writable for the extent per the contract, disjoint from the world.
         let mut out = unsafe { strided_out::<3>(out, n, stride, c"out", c"stride") }?;
-        put_vec3s(&mut out, src);
+        for i in 0..n {
+            out.set(i, element(&w.world, i).unwrap_or_default());
+        }
         Ok(())
     })())
 }
 
-/// Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
+/// Copies the world's vertex positions (metres, in the caller's coordinates: see
+/// `weft_world_set_origin`) out: vertex i's 3 floats to byte
 /// `i * stride` of `out`, written unaligned (so straight into an interleaved vertex buffer).
 /// `count` is the capacity of `out` in vertices, ≥ `weft_world_vertex_count`; exactly that
 /// many are written. `stride` ≥ 12.
@@ -53,7 +66,7 @@ pub unsafe extern "C" fn weft_world_get_positions(
     stride: usize,
 ) -> WeftResult {
     // SAFETY: forwarded contract.
-    unsafe { get_vec3s(world, out, count, stride, |w| w.positions()) }
+    unsafe { get_vec3s(world, out, count, stride, position_out) }
 }
 
 /// Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
@@ -68,7 +81,7 @@ pub unsafe extern "C" fn weft_world_get_velocities(
     stride: usize,
 ) -> WeftResult {
     // SAFETY: forwarded contract.
-    unsafe { get_vec3s(world, out, count, stride, |w| w.velocities()) }
+    unsafe { get_vec3s(world, out, count, stride, velocity_out) }
 }
 
 /// # Safety
@@ -284,4 +297,93 @@ pub unsafe extern "C" fn weft_world_clear_colliders(world: *mut WeftWorld) -> We
 pub unsafe extern "C" fn weft_world_collider_count(world: *const WeftWorld) -> u32 {
     // SAFETY: forwarded contract.
     unsafe { world_at(world) }.map_or(0, |w| w.world.collider_count() as u32)
+}
+
+/// The world's origin, in `*out_origin`: the point of your coordinates that the world keeps at
+/// zero of its own single-precision coordinates. A step moves vertices by `x += v * h` in
+/// `float`; at 10 km from zero a `float` resolves only ~1 mm, so slow motion would be rounded
+/// away and a cloth there would never rest. The world therefore simulates relative to an
+/// origin near the cloth, and every position you give or get (the def's positions,
+/// `weft_world_set_positions` / `weft_world_get_positions`, pin targets, collider shapes, and
+/// `weft_localize`'s output) is in your coordinates, converted through double precision, one
+/// rounding each way. At create the origin is the centre of the cloth's bounding box rounded
+/// to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 32 m of zero, where
+/// nothing is converted. Velocities do not depend on it; the gravitational energy is measured
+/// from its height.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `out_origin` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_get_origin(
+    world: *const WeftWorld,
+    out_origin: *mut WeftDVec3,
+) -> WeftResult {
+    done((|| {
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let out = out_ptr(out_origin, c"out_origin")?;
+        let o = w.world.origin();
+        // SAFETY: checked; writable per the contract.
+        unsafe {
+            out.write(WeftDVec3 {
+                x: o.x,
+                y: o.y,
+                z: o.z,
+            })
+        };
+        Ok(())
+    })())
+}
+
+/// Moves the world's origin (`weft_world_get_origin`) to `origin`, in your coordinates: e.g.
+/// when the cloth has travelled kilometres from where it was created. Nothing moves in your
+/// coordinates (positions, pins and colliders are re-expressed relative to the new origin, one
+/// rounding each). `WEFT_RESULT_NON_FINITE` (nothing changed) for a non-finite origin or one so
+/// far from the cloth that its coordinates would overflow. Does not wake the world.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_origin(
+    world: *mut WeftWorld,
+    origin: WeftDVec3,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe { edit_origin(world, origin, c"origin", World::set_origin) }
+}
+
+/// For an engine that recenters its own coordinates (as Jolt's and PhysX's "shift origin"):
+/// what was at `shift` in your old coordinates is at zero in the new ones, and every later
+/// position you give or get is in the new ones. Nothing in the world moves or is rounded (its
+/// origin changes by `-shift`). `WEFT_RESULT_NON_FINITE` (nothing changed) when the new
+/// origin would not be finite.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_shift_origin(
+    world: *mut WeftWorld,
+    shift: WeftDVec3,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe { edit_origin(world, shift, c"shift", World::shift_origin) }
+}
+
+/// `edit(world, point)`, its fault naming `what`.
+///
+/// # Safety
+/// `world` as [`with_world`].
+unsafe fn edit_origin(
+    world: *mut WeftWorld,
+    point: WeftDVec3,
+    what: &'static core::ffi::CStr,
+    edit: fn(&mut World<'static>, DVec3) -> Result<(), EditError>,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            let p = DVec3::new(point.x, point.y, point.z);
+            edit(&mut w.world, p).map_err(|e| edit_fault(e, &w.world).what(what))
+        })
+    }
 }

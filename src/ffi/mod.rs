@@ -125,6 +125,10 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// other capacity.
 pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_926_560;
 
+/// A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
+/// of this many metres (`weft_world_get_origin`).
+pub const WEFT_ORIGIN_GRID: f64 = 64.0;
+
 /// `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
 /// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
 /// (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
@@ -193,6 +197,7 @@ const _: () = assert!(WEFT_WORLD_HEADER_SIZE.is_multiple_of(WEFT_WORLD_MEMORY_AL
 const _: () = assert!(WEFT_BLOB_ALIGN == crate::blob::BASE_ALIGN);
 const _: () = assert!(WEFT_BLOB_VERSION == crate::blob::VERSION);
 const _: () = assert!(WEFT_EFFECT_ALL == crate::world::effects::ALL);
+const _: () = assert!(WEFT_ORIGIN_GRID == crate::world::ORIGIN_GRID);
 // Bindings and frames blocks are the kernel's formats, viewed in place in the caller's blocks.
 const _: () = assert!(WEFT_BIND_HEADER_SIZE == blocks::BINDINGS_HEADER_SIZE);
 const _: () = assert!(WEFT_BIND_VERTEX_SIZE == blocks::BINDING_SIZE);

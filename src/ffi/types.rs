@@ -230,6 +230,18 @@ pub struct WeftStepStats {
     pub energy_removed: f32,
 }
 
+/// A point or vector in double precision: the world's origin (`weft_world_set_origin`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WeftDVec3 {
+    /// x component.
+    pub x: f64,
+    /// y component.
+    pub y: f64,
+    /// z component.
+    pub z: f64,
+}
+
 /// Where `weft_localize` writes a range of the fine render mesh. Get one from
 /// `weft_default_localize_output()` and edit it (a struct that did not come from there is
 /// `WEFT_RESULT_UNINITIALIZED`). Only read during the call.

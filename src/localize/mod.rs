@@ -173,7 +173,9 @@ impl VertexFrame {
     };
 }
 
-/// Per-vertex frames of the world's current shape: `frames[..world.vertex_count()]`.
+/// Per-vertex frames of the world's current shape: `frames[..world.vertex_count()]`, their
+/// positions in the caller's coordinates (the world's strains and frames come from its local
+/// positions, so they keep their precision however far the world is from zero).
 pub fn prepare(
     world: &World<'_>,
     measure: StrainMeasure,
@@ -185,7 +187,13 @@ pub fn prepare(
         world.triangles(),
         measure,
         frames,
-    )
+    )?;
+    if world.origin() != glam::DVec3::ZERO {
+        for f in frames.iter_mut().take(world.vertex_count()) {
+            f.p = Vec3A::from(world.to_world(f.p));
+        }
+    }
+    Ok(())
 }
 
 /// [`prepare`] on plain slices: rest positions `(u, v, 0)`, current positions, triangles.

@@ -7,7 +7,7 @@
 
 use glam::Vec3A;
 
-use super::{memory, Capacity, ClothDef, InitError, Materials, Settings, StepStats};
+use super::{memory, origin, Capacity, ClothDef, InitError, Materials, Settings, StepStats};
 use super::{Solver, StridedClothDef, TriangleMaterials, World};
 use crate::bending;
 use crate::membrane::{self, Element};
@@ -95,6 +95,7 @@ impl<'a> World<'a> {
             asleep: false,
             last: StepStats::default(),
             solver: Solver::default(),
+            origin: origin::origin_for(&cloth.positions),
         };
         w.build(cloth, materials)?;
         Ok(w)
@@ -105,7 +106,7 @@ impl<'a> World<'a> {
         cloth: &StridedClothDef<'_>,
         materials: Materials<'_>,
     ) -> Result<(), InitError> {
-        let (n, nt) = (self.n, self.nt);
+        let (n, nt, origin) = (self.n, self.nt, self.origin);
         let a = &mut self.a;
         mesh::validate_strided(
             &cloth.positions,
@@ -138,7 +139,7 @@ impl<'a> World<'a> {
         for (i, (x, rest)) in placed.enumerate() {
             let p = cloth.positions.get(i).ok_or(InitError::Internal)?;
             let uv = cloth.uvs.get(i).ok_or(InitError::Internal)?;
-            *x = Vec3A::from(p);
+            *x = origin::to_local(origin, p);
             *rest = Vec3A::new(uv[0], uv[1], 0.0);
         }
         // Edges, hinges and the block couplings are needed only here, before the stiffness

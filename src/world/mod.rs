@@ -11,22 +11,35 @@
 //! hinge bending, gravity, wind and Rayleigh damping, with pins and contacts in the filter of
 //! the modified PCG; its stages live in `crate::step` (`src/step/`), in order, and every step's energy
 //! balance is checked at its end (`step/monitor.rs`).
+//!
+//! **Coordinates.** The world simulates relative to its [`origin`](World::origin) (an `f64`
+//! point of the caller's coordinates, near the cloth: `origin.rs` says why and how it is
+//! chosen). Every input is in the caller's coordinates and converted on the way in:
+//! [`ClothDef`] positions, [`World::set_positions`], [`World::set_pin`],
+//! [`World::add_collider`], [`World::set_collider_shape`]. The accessors that lend the world's
+//! own arrays, [`World::positions`] and [`World::collider`], are in local coordinates;
+//! [`World::to_world`] turns a local point into the caller's (the C API's getters do), and
+//! localization's frames ([`crate::localize::prepare`]) are in the caller's coordinates. For a
+//! cloth created within `ORIGIN_GRID / 2` (32 m) of the caller's zero the origin is zero and the
+//! two coordinates are the same, bit for bit.
 
 mod build;
 pub(crate) mod error;
 pub(crate) mod memory;
+mod origin;
 pub(crate) mod settings;
 
 pub use error::{EditError, Energy, InitError, StepError, StepStats};
 pub use memory::Capacity;
 pub(crate) use memory::{Arrays, Counts};
+pub use origin::ORIGIN_GRID;
 pub use settings::{effects, Settings, Solver};
 
 use core::ops::Not;
 #[cfg(feature = "research")]
 use glam::Quat;
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 
 use crate::blob::Blob;
 use crate::collide::{Collider, ColliderSet, Shape};
@@ -182,6 +195,8 @@ pub struct World<'a> {
     asleep: bool,
     last: StepStats,
     solver: Solver,
+    /// The caller's coordinates of local zero (`origin.rs`).
+    origin: DVec3,
 }
 
 impl<'a> World<'a> {
@@ -202,6 +217,8 @@ impl<'a> World<'a> {
     pub fn capacity(&self) -> Capacity {
         self.capacity
     }
+    /// Vertex positions in local coordinates (module docs, "Coordinates"): `to_world` gives the
+    /// caller's.
     pub fn positions(&self) -> &[Vec3A] {
         prefix(self.a.x, self.n)
     }
@@ -281,7 +298,7 @@ impl<'a> World<'a> {
         self.level = None;
     }
 
-    /// Overwrites positions (and zeroes nothing else); wakes the world.
+    /// Overwrites positions (caller's coordinates; zeroes nothing else); wakes the world.
     pub fn set_positions(&mut self, positions: &[[f32; 3]]) -> Result<(), EditError> {
         self.set_positions_strided(&Strided::from_slice(positions))
     }
@@ -289,8 +306,9 @@ impl<'a> World<'a> {
     /// [`World::set_positions`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_positions_strided(&mut self, positions: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(positions, self.n)?;
+        let origin = self.origin;
         for (i, x) in prefix_mut(self.a.x, self.n).iter_mut().enumerate() {
-            *x = Vec3A::from(positions.get(i).ok_or(EditError::VertexOutOfRange)?);
+            *x = origin::to_local(origin, positions.get(i).ok_or(EditError::VertexOutOfRange)?);
         }
         self.wake();
         Ok(())
@@ -315,7 +333,7 @@ impl<'a> World<'a> {
 
     // ----- pins -----
 
-    /// Pins `vertex` to `target` (m). A pin that already exists gets the new target; the vertex
+    /// Pins `vertex` to `target` (m, caller's coordinates). A pin that already exists gets the new target; the vertex
     /// moves there over the next step (linearly across substeps). Wakes the world when the
     /// target changed. Targets are checked at step time too, so a NaN target set through a
     /// raw pointer in C is still caught.
@@ -324,7 +342,7 @@ impl<'a> World<'a> {
         if vi >= self.n {
             return Err(EditError::VertexOutOfRange);
         }
-        let target = Vec3A::from(target);
+        let target = origin::to_local(self.origin, target);
         // (`pin_of` and `x` are capacity-long, and a pin index is below the pin count: the
         // `VertexOutOfRange` and `PinCapacity` below cannot happen)
         let p = *self.a.pin_of.get(vi).ok_or(EditError::VertexOutOfRange)?;
@@ -416,11 +434,16 @@ impl<'a> World<'a> {
 
     // ----- colliders -----
 
-    /// Adds a collider; returns its index.
+    /// Adds a collider (its shapes in the caller's coordinates); returns its index.
     pub fn add_collider(&mut self, collider: Collider) -> Result<u32, EditError> {
         if !collider.is_valid() {
             return Err(EditError::InvalidCollider);
         }
+        let collider = Collider {
+            shape: origin::shape_to_local(self.origin, collider.shape),
+            previous: origin::shape_to_local(self.origin, collider.previous),
+            ..collider
+        };
         if self.colliders >= self.capacity.c() {
             return Err(EditError::ColliderCapacity);
         }
@@ -435,8 +458,10 @@ impl<'a> World<'a> {
         Ok(self.colliders as u32 - 1)
     }
 
-    /// Moves collider `index` to `shape`; the next step sweeps it from where it was.
+    /// Moves collider `index` to `shape` (caller's coordinates); the next step sweeps it from
+    /// where it was.
     pub fn set_collider_shape(&mut self, index: u32, shape: Shape) -> Result<(), EditError> {
+        let shape = origin::shape_to_local(self.origin, shape);
         let c = self
             .a
             .colliders
@@ -453,6 +478,7 @@ impl<'a> World<'a> {
         Ok(())
     }
 
+    /// Collider `index`, in local coordinates (module docs, "Coordinates").
     pub fn collider(&self, index: u32) -> Option<&Collider> {
         prefix(self.a.colliders, self.colliders).get(index as usize)
     }
@@ -461,9 +487,75 @@ impl<'a> World<'a> {
         self.colliders
     }
 
-    /// The colliders, for [`crate::localize::localize_colliding`].
+    /// The colliders, for [`crate::localize::localize_colliding`] (whose frames are in the
+    /// caller's coordinates).
     pub fn collider_set(&self) -> ColliderSet<'_> {
-        ColliderSet::new(prefix(self.a.colliders, self.colliders))
+        ColliderSet {
+            colliders: prefix(self.a.colliders, self.colliders),
+            origin: self.origin.as_vec3a(),
+        }
+    }
+
+    // ----- origin -----
+
+    /// The caller's coordinates of the world's local zero (module docs, "Coordinates").
+    pub fn origin(&self) -> DVec3 {
+        self.origin
+    }
+
+    /// A point of the caller's coordinates in local ones (what every input goes through).
+    pub fn to_local(&self, p: [f32; 3]) -> Vec3A {
+        origin::to_local(self.origin, p)
+    }
+
+    /// A local point (e.g. of [`World::positions`]) in the caller's coordinates (what every
+    /// output goes through).
+    pub fn to_world(&self, x: Vec3A) -> [f32; 3] {
+        origin::to_world(self.origin, x)
+    }
+
+    /// Moves the local zero to `origin` (caller's coordinates), e.g. when the cloth travelled
+    /// far from where it was created: positions, pin targets and colliders are re-expressed
+    /// relative to it, one rounding each, and stay where they are in the caller's coordinates.
+    /// Does not wake the world. `NonFinite` (nothing changed) for a non-finite origin or one so
+    /// far that a local coordinate would not be finite.
+    pub fn set_origin(&mut self, origin: DVec3) -> Result<(), EditError> {
+        let from = self.origin;
+        let finite = |x: &Vec3A| origin::rebase(from, origin, *x).is_finite();
+        if !(origin.is_finite() && prefix(self.a.x, self.n).iter().all(finite)) {
+            return Err(EditError::NonFinite);
+        }
+        let a = &mut self.a;
+        for x in prefix_mut(a.x, self.n) {
+            *x = origin::rebase(from, origin, *x);
+        }
+        for x in prefix_mut(a.pin_target, self.pins)
+            .iter_mut()
+            .chain(prefix_mut(a.pin_previous, self.pins))
+        {
+            *x = origin::rebase(from, origin, *x);
+        }
+        for c in prefix_mut(a.colliders, self.colliders) {
+            c.shape = c.shape.translated(from - origin);
+            c.previous = c.previous.translated(from - origin);
+        }
+        self.origin = origin;
+        // the gravitational energy is measured from the origin's height
+        self.level = None;
+        Ok(())
+    }
+
+    /// Follows a recentering of the caller's coordinates (Jolt's and PhysX's "shift origin"):
+    /// what was at `shift` is now at zero, so every later input and output is relative to the
+    /// new coordinates. Nothing in the world moves or is rounded (only the origin changes by
+    /// `-shift`). `NonFinite` (nothing changed) when the new origin would not be finite.
+    pub fn shift_origin(&mut self, shift: DVec3) -> Result<(), EditError> {
+        let origin = self.origin - shift;
+        if !origin.is_finite() {
+            return Err(EditError::NonFinite);
+        }
+        self.origin = origin;
+        Ok(())
     }
 
     /// Removes all colliders.
@@ -655,7 +747,7 @@ impl<'a> World<'a> {
     }
 
     /// The cloth's mechanical energy (J): kinetic, elastic (as the step's own forces see it),
-    /// bending and gravitational (if on).
+    /// bending and gravitational (if on; measured from the height of the [`World::origin`]).
     pub fn energy(&mut self) -> Energy {
         // The same sums the step's energy balance uses; a world's counts always fit its
         // arrays, so the fallback (no energy) is never taken.
