@@ -1,5 +1,6 @@
 //! Kinematic colliders (plane, sphere, capsule, shell: a hollow sphere) and cloth–collider
-//! contact shapes: proximity, sweep, surface velocity, projection.
+//! contact shapes: proximity, sweep, surface velocity, projection, and pushing a point out along a
+//! direction (collision-aware localization).
 //!
 //! Contact enters the step twice (docs/ARCHITECTURE.md, "One step, in order"):
 //! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets
