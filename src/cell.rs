@@ -36,6 +36,7 @@ use serde::Deserialize;
 
 use crate::lattice;
 use crate::membrane;
+use crate::voigt::SpdProblem;
 use crate::Voigt;
 
 /// Bending stiffness (N·m) of a material whose `bending` key is absent: a light cotton-like
@@ -86,6 +87,17 @@ impl CellDesc {
         self.size * self.rows as f64 / self.cols as f64
     }
 
+    /// Keys of the materials no pixel uses (allowed, but usually a typo in the pattern or a
+    /// leftover; `weft-cell build` warns).
+    pub fn unused_materials(&self) -> Vec<&str> {
+        self.materials
+            .iter()
+            .enumerate()
+            .filter(|(m, _)| !self.pixels.iter().any(|&p| p as usize == *m))
+            .map(|(_, mat)| mat.key.as_str())
+            .collect()
+    }
+
     /// Material index of pixel `(row, col)`, row 0 at the top. Out-of-range coordinates (or a
     /// `pixels` vector shorter than `rows * cols`) give `u32::MAX`, which no material has, so
     /// the error surfaces where the index is used instead of as a panic here.
@@ -116,8 +128,18 @@ pub enum MaterialProblem {
     /// `poisson` is not in the open interval (-1, 0.5), where the isotropic membrane `C` is
     /// positive definite.
     PoissonOutOfRange(f64),
-    /// `tensor` is not symmetric positive definite (or not finite).
-    TensorNotSpd,
+    /// `tensor` has a NaN or infinite entry.
+    TensorNotFinite,
+    /// `tensor[row][col]` (`lower`) differs from `tensor[col][row]` (`upper`) beyond decimal
+    /// round-off.
+    TensorNotSymmetric {
+        row: usize,
+        col: usize,
+        lower: f64,
+        upper: f64,
+    },
+    /// `tensor` is symmetric but not positive definite: some strain would store no energy.
+    TensorNotPositiveDefinite,
     /// `density` is NaN, infinite, zero or negative.
     BadDensity(f64),
     /// `bending` is NaN, infinite or negative.
@@ -143,7 +165,20 @@ impl fmt::Display for MaterialProblem {
             }
             Self::BadStiffness(v) => write!(f, "stiffness {v} is not a positive finite number"),
             Self::PoissonOutOfRange(v) => write!(f, "poisson {v} is outside (-1, 0.5)"),
-            Self::TensorNotSpd => write!(f, "tensor is not symmetric positive definite"),
+            Self::TensorNotFinite => write!(f, "tensor has a non-finite entry"),
+            Self::TensorNotSymmetric {
+                row,
+                col,
+                lower,
+                upper,
+            } => write!(
+                f,
+                "tensor is not symmetric: tensor[{row}][{col}] = {lower} but tensor[{col}][{row}] = {upper}"
+            ),
+            Self::TensorNotPositiveDefinite => write!(
+                f,
+                "tensor is symmetric but not positive definite (a leading minor is ≤ 0): some strain would store no energy"
+            ),
             Self::BadDensity(v) => write!(f, "density {v} is not a positive finite number"),
             Self::BadBending(v) => write!(f, "bending {v} is not a non-negative finite number"),
         }
@@ -162,11 +197,12 @@ pub enum CellError {
         line: Option<usize>,
         message: String,
     },
-    /// A key the format does not know (typo?).
+    /// A key the format does not know; `suggestion` is a known key one or two edits away.
     UnknownKey {
         file: String,
         key: String,
         line: Option<usize>,
+        suggestion: Option<String>,
     },
     /// A required key is absent.
     MissingKey {
@@ -247,8 +283,17 @@ impl fmt::Display for CellError {
                 line,
                 message,
             } => write!(f, "{file}{}: TOML syntax error: {message}", at_line(line)),
-            Self::UnknownKey { file, key, line } => {
-                write!(f, "{file}{}: unknown key `{key}`", at_line(line))
+            Self::UnknownKey {
+                file,
+                key,
+                line,
+                suggestion,
+            } => {
+                write!(f, "{file}{}: unknown key `{key}`", at_line(line))?;
+                match suggestion {
+                    Some(s) => write!(f, "; did you mean `{s}`?"),
+                    None => Ok(()),
+                }
             }
             Self::MissingKey { file, key, line } => {
                 write!(f, "{file}{}: missing key `{key}`", at_line(line))
@@ -349,11 +394,48 @@ fn line_of(text: &str, span: Option<std::ops::Range<usize>>) -> Option<usize> {
     Some(head.matches('\n').count() + 1)
 }
 
-/// The name between the first pair of backticks of a serde message ("unknown field `x`, ...").
-fn backticked(message: &str) -> Option<String> {
-    let start = message.find('`')? + 1;
-    let len = message[start..].find('`')?;
-    Some(message[start..start + len].to_string())
+/// The names between pairs of backticks of a serde message, in order ("unknown field `x`,
+/// expected one of `a`, `b`": x, a, b).
+fn backticked(message: &str) -> Vec<&str> {
+    message.split('`').skip(1).step_by(2).collect()
+}
+
+/// The known key closest to a misspelled `key`, if one is at most two edits away (one for
+/// keys of up to four characters, so that `size` does not suggest `name`).
+fn closest<'a>(key: &str, known: &[&'a str]) -> Option<&'a str> {
+    let limit = if key.chars().count() <= 4 { 1 } else { 2 };
+    known
+        .iter()
+        .map(|k| (edit_distance(key, k), *k))
+        .filter(|(d, _)| *d <= limit)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, k)| k)
+}
+
+/// Edit distance (insertions, deletions, substitutions and swaps of neighbours: the optimal
+/// string alignment distance) over chars.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let at = |row: &[usize], k: usize| row.get(k).copied().unwrap_or(usize::MAX / 2);
+    // Rows i-1 and i of the table d[i][j] = distance of a's first i chars to b's first j.
+    let mut before: Vec<usize> = Vec::new();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, &ca) in a.iter().enumerate() {
+        let mut row = Vec::with_capacity(b.len() + 1);
+        row.push(i + 1);
+        for (j, &cb) in b.iter().enumerate() {
+            let mut best = (at(&prev, j) + usize::from(ca != cb))
+                .min(at(&prev, j + 1) + 1)
+                .min(at(&row, j) + 1);
+            let swap = i > 0 && j > 0 && a.get(i - 1) == Some(&cb) && b.get(j - 1) == Some(&ca);
+            if swap {
+                best = best.min(at(&before, j - 1) + 1);
+            }
+            row.push(best);
+        }
+        before = std::mem::replace(&mut prev, row);
+    }
+    at(&prev, b.len())
 }
 
 /// Parses and validates cell-file text. `file_name` names the file in errors and gives the
@@ -372,16 +454,17 @@ pub fn parse(text: &str, file_name: &str, base_dir: &Path) -> Result<CellDesc, C
         let line = line_of(text, e.span());
         let message = e.message().to_string();
         // serde's fixed wording for `deny_unknown_fields` and absent non-Option fields.
-        let key = backticked(&message);
-        match key {
-            Some(key) if message.starts_with("unknown field") => CellError::UnknownKey {
+        let names = backticked(&message);
+        match names.split_first() {
+            Some((key, known)) if message.starts_with("unknown field") => CellError::UnknownKey {
                 file: file.clone(),
-                key,
+                key: key.to_string(),
                 line,
+                suggestion: closest(key, known).map(str::to_string),
             },
-            Some(key) if message.starts_with("missing field") => CellError::MissingKey {
+            Some((key, _)) if message.starts_with("missing field") => CellError::MissingKey {
                 file: file.clone(),
-                key,
+                key: key.to_string(),
                 line,
             },
             _ => CellError::BadValue {
@@ -456,8 +539,21 @@ fn material(file: &str, key: &str, m: &RawMaterial) -> Result<Material, CellErro
             membrane::isotropic(y, nu)
         }
         (None, None, Some(t)) => {
-            if !membrane::is_spd(&t) {
-                return Err(bad(MaterialProblem::TensorNotSpd));
+            match crate::voigt::check_spd(&t) {
+                Ok(()) => {}
+                Err(SpdProblem::NotFinite) => return Err(bad(MaterialProblem::TensorNotFinite)),
+                Err(SpdProblem::Asymmetric { row, col }) => {
+                    let at = |i: usize, j: usize| t.get(i).and_then(|r| r.get(j)).copied();
+                    return Err(bad(MaterialProblem::TensorNotSymmetric {
+                        row,
+                        col,
+                        lower: at(row, col).unwrap_or(f64::NAN),
+                        upper: at(col, row).unwrap_or(f64::NAN),
+                    }));
+                }
+                Err(SpdProblem::NotPositiveDefinite) => {
+                    return Err(bad(MaterialProblem::TensorNotPositiveDefinite))
+                }
             }
             // is_spd accepts a relative 1e-9 asymmetry (decimal round-off in the file);
             // store the symmetric part so C is exactly symmetric downstream.
@@ -893,8 +989,34 @@ bending = 2e-6
             other => panic!("{other:?}"),
         }
         match variant("density = 0.2", "density = 0.2\nstiffnes = 3") {
-            Err(CellError::UnknownKey { key, .. }) => assert_eq!(key, "stiffnes"),
+            Err(e @ CellError::UnknownKey { .. }) => {
+                assert!(e.to_string().ends_with("did you mean `stiffness`?"), "{e}");
+                let CellError::UnknownKey {
+                    key, suggestion, ..
+                } = e
+                else {
+                    unreachable!()
+                };
+                assert_eq!(
+                    (key.as_str(), suggestion.as_deref()),
+                    ("stiffnes", Some("stiffness"))
+                );
+            }
             other => panic!("{other:?}"),
+        }
+        // top level, and one edit at most for short keys: `siz` is `size`, `zzz` nothing
+        for (typo, want) in [
+            ("pattern_imag", Some("pattern_image")),
+            ("nmae", Some("name")),
+            ("siz", Some("size")),
+            ("zzz", None),
+        ] {
+            match variant("size = 0.02", &format!("size = 0.02\n{typo} = 1")) {
+                Err(CellError::UnknownKey { suggestion, .. }) => {
+                    assert_eq!(suggestion.as_deref(), want, "{typo}")
+                }
+                other => panic!("{other:?}"),
+            }
         }
         match variant("size = 0.02", "") {
             Err(CellError::MissingKey { key, .. }) => assert_eq!(key, "size"),
@@ -1013,26 +1135,48 @@ bending = 2e-6
         }
         // zero bending is allowed
         assert!(variant("bending = 2e-6", "bending = 0.0").is_ok());
-        // indefinite, and asymmetric, tensors
+        // indefinite, and asymmetric, tensors: told apart
+        let spd = "[[300.0, 40.0, 0.0], [40.0, 90.0, 0.0], [0.0, 0.0, 30.0]]";
         for t in [
             "[[300.0, 400.0, 0.0], [400.0, 90.0, 0.0], [0.0, 0.0, 30.0]]",
-            "[[300.0, 40.0, 0.0], [41.0, 90.0, 0.0], [0.0, 0.0, 30.0]]",
             "[[300.0, 40.0, 0.0], [40.0, 90.0, 0.0], [0.0, 0.0, -30.0]]",
         ] {
-            let (key, p) = invalid(
-                "[[300.0, 40.0, 0.0], [40.0, 90.0, 0.0], [0.0, 0.0, 30.0]]",
-                t,
-            );
-            assert_eq!((key.as_str(), p), (".", TensorNotSpd));
+            let (key, p) = invalid(spd, t);
+            assert_eq!((key.as_str(), p), (".", TensorNotPositiveDefinite));
         }
+        let (_, p) = invalid(
+            spd,
+            "[[300.0, 40.0, 0.0], [41.0, 90.0, 0.0], [0.0, 0.0, 30.0]]",
+        );
+        assert_eq!(
+            p,
+            TensorNotSymmetric {
+                row: 1,
+                col: 0,
+                lower: 41.0,
+                upper: 40.0
+            }
+        );
+        assert!(p.to_string().contains("not symmetric"), "{p}");
+        // asymmetric and indefinite: the asymmetry is named first
+        let (_, p) = invalid(
+            spd,
+            "[[300.0, 400.0, 0.0], [40.0, 90.0, 0.0], [0.0, 0.0, 30.0]]",
+        );
+        assert!(
+            matches!(p, TensorNotSymmetric { row: 1, col: 0, .. }),
+            "{p:?}"
+        );
         let e = variant("poisson = 0.3", "poisson = 0.6").unwrap_err();
         assert!(e.to_string().contains("\"#\""), "{e}");
-        // an unused invalid material is still an error; an unused valid one is fine
-        assert!(variant(
+        // an unused invalid material is still an error; an unused valid one is fine, and named
+        let d = variant(
             "[materials.\".\"]",
-            "[materials.\"x\"]\nstiffness = 1.0\npoisson = 0.0\ndensity = 1.0\n[materials.\".\"]"
+            "[materials.\"x\"]\nstiffness = 1.0\npoisson = 0.0\ndensity = 1.0\n[materials.\".\"]",
         )
-        .is_ok());
+        .unwrap();
+        assert_eq!(d.unused_materials(), ["x"]);
+        assert!(parse_str(GOOD).unwrap().unused_materials().is_empty());
     }
 
     fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) {

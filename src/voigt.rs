@@ -16,25 +16,50 @@ pub fn isotropic(stiffness: f64, poisson: f64) -> Voigt {
     ]
 }
 
-/// True when `c` is finite, symmetric (to a relative 1e-9) and positive definite (Sylvester's
-/// criterion on the leading minors).
-pub fn is_spd(c: &Voigt) -> bool {
-    let scale = c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !scale.is_finite() || scale <= 0.0 || c.iter().flatten().any(|v| !v.is_finite()) {
-        return false;
+/// Why a tensor is not symmetric positive definite, in the order [`check_spd`] tests.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpdProblem {
+    /// An entry is NaN or infinite.
+    NotFinite,
+    /// Entry `(row, col)` (below the diagonal) differs from `(col, row)` by more than a relative
+    /// 1e-9 of the largest entry.
+    Asymmetric { row: usize, col: usize },
+    /// Symmetric, but a leading minor is not positive (the tensor would let some strain store
+    /// no or negative energy).
+    NotPositiveDefinite,
+}
+
+/// `Ok` when `c` is finite, symmetric (to a relative 1e-9) and positive definite (Sylvester's
+/// criterion on the leading minors); else the first problem found.
+pub fn check_spd(c: &Voigt) -> Result<(), SpdProblem> {
+    if c.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(SpdProblem::NotFinite);
     }
-    // lower against upper triangle, (1, 0), (2, 0), (2, 1)
+    let scale = c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
     let [[_, c01, c02], [c10, _, c12], [c20, c21, _]] = *c;
-    for (lower, upper) in [(c10, c01), (c20, c02), (c21, c12)] {
+    for (row, col, lower, upper) in [(1, 0, c10, c01), (2, 0, c20, c02), (2, 1, c21, c12)] {
         if (lower - upper).abs() > 1e-9 * scale {
-            return false;
+            return Err(SpdProblem::Asymmetric { row, col });
         }
     }
     let m1 = c[0][0];
     let m2 = c[0][0] * c[1][1] - c[0][1] * c[1][0];
     let m3 = det3(c);
     let tol = 1e-14;
-    m1 > tol * scale && m2 > tol * scale * scale && m3 > tol * scale * scale * scale
+    let positive = scale > 0.0
+        && m1 > tol * scale
+        && m2 > tol * scale * scale
+        && m3 > tol * scale * scale * scale;
+    if positive {
+        Ok(())
+    } else {
+        Err(SpdProblem::NotPositiveDefinite)
+    }
+}
+
+/// True when `c` is finite, symmetric (to a relative 1e-9) and positive definite: [`check_spd`].
+pub fn is_spd(c: &Voigt) -> bool {
+    check_spd(c).is_ok()
 }
 
 /// Determinant of a 3×3 matrix.
@@ -60,4 +85,37 @@ pub fn inverse3(m: &Voigt) -> Option<Voigt> {
         }
     }
     Some(r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spd_problems_are_told_apart() {
+        // An anisotropic SPD tensor (coupled shear), then one defect at a time.
+        let c = [[300.0, 40.0, 10.0], [40.0, 90.0, 5.0], [10.0, 5.0, 30.0]];
+        assert_eq!(check_spd(&c), Ok(()));
+        let mut asym = c;
+        asym[2][1] = 6.0;
+        assert_eq!(
+            check_spd(&asym),
+            Err(SpdProblem::Asymmetric { row: 2, col: 1 })
+        );
+        // within the relative 1e-9: decimal round-off in a file, accepted
+        asym[2][1] = 5.0 + 1e-8;
+        assert_eq!(check_spd(&asym), Ok(()));
+        let mut indefinite = c;
+        indefinite[0][1] = 200.0;
+        indefinite[1][0] = 200.0; // 300·90 − 200² < 0
+        assert_eq!(check_spd(&indefinite), Err(SpdProblem::NotPositiveDefinite));
+        assert_eq!(
+            check_spd(&[[0.0; 3]; 3]),
+            Err(SpdProblem::NotPositiveDefinite)
+        );
+        let mut nan = c;
+        nan[1][1] = f64::NAN;
+        assert_eq!(check_spd(&nan), Err(SpdProblem::NotFinite));
+        assert!(is_spd(&c) && !is_spd(&indefinite));
+    }
 }

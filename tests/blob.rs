@@ -6,7 +6,7 @@ mod cells;
 use cells::{laminate, small_cell, two_materials, Axis};
 use weft::blob::{
     crc32, load_aligned, write, AlignedBytes, Blob, BlobError, CellRecord, Field, SectionKind,
-    VERSION,
+    HEADER_SIZE, VERSION,
 };
 
 // ---- helpers written against docs/BLOB.md -------------------------------------------------------
@@ -245,9 +245,18 @@ fn layout_follows_the_spec() {
 fn every_truncation_is_rejected() {
     let b = blob_of(&[small_cell()]);
     for len in 0..b.len() {
+        // Below the header the header is what is missing; past it, the announced total.
+        let expected = if len < HEADER_SIZE {
+            HEADER_SIZE
+        } else {
+            b.len()
+        };
         assert_eq!(
             Blob::parse(&b[..len]).err(),
-            Some(BlobError::TooShort),
+            Some(BlobError::TooShort {
+                expected: expected as u64,
+                found: len as u64
+            }),
             "len {len}"
         );
     }

@@ -69,13 +69,188 @@ fn inspect_json_reports_every_cell() {
             ("voigt_bound", &c.voigt_bound),
             ("reuss_bound", &c.reuss_bound),
         ] {
-            for r in 0..3 {
-                for k in 0..3 {
-                    assert!(close(&j[key][r][k], m[r][k]), "{key}[{r}][{k}]");
+            for (r, row) in m.iter().enumerate() {
+                for (k, v) in row.iter().enumerate() {
+                    assert!(close(&j[key][r][k], *v), "{key}[{r}][{k}]");
                 }
             }
         }
+        // What the table shows beyond the record: anisotropy, bounds, χ, materials.
+        assert!(close(
+            &j["anisotropy"],
+            c.stiffness[0][0] / c.stiffness[1][1]
+        ));
+        assert_eq!(j["bounds"]["holds"], "yes");
+        assert!(j["bounds"]["min_eig_ch_minus_reuss"].as_f64().unwrap() >= 0.0);
+        assert!(j["bounds"]["min_eig_voigt_minus_ch"].as_f64().unwrap() >= 0.0);
+        let max_chi = j["chi"]["max_norm"].as_array().unwrap();
+        assert_eq!(max_chi.len(), 3);
+        assert!(max_chi.iter().any(|v| v.as_f64().unwrap() > 0.0));
+        assert!(j["chi"]["max_abs_mean"].as_f64().unwrap() < 1e-9);
+        let mats = j["materials"].as_array().unwrap();
+        assert_eq!(mats.len(), c.materials.len());
+        let mut area = 0.0;
+        for (jm, m) in mats.iter().zip(&c.materials) {
+            assert!(close(&jm["density"], m.density));
+            assert!(close(&jm["bending"], m.bending));
+            assert!(close(&jm["c"][0][1], m.c[0][1]));
+            area += jm["area_fraction"].as_f64().unwrap();
+        }
+        assert!((area - 1.0).abs() < 1e-12);
     }
+}
+
+/// `C^H` moved below the Reuss bound by a relative 1e-8 (solver precision) and by 1e-3: the
+/// bounds check says neither "yes" beside a negative eigenvalue.
+#[test]
+fn bounds_check_never_says_yes_beside_a_negative_eigenvalue() {
+    for (shrink, table_says, json_says) in [
+        (0.0, "yes", "yes"),
+        (1e-8, "within solver precision", "within solver precision"),
+        (1e-3, "NO", "no"),
+    ] {
+        let mut cell = two_cells().remove(0);
+        cell.stiffness = cell.reuss_bound.map(|r| r.map(|v| v * (1.0 - shrink)));
+        let path = save(&[cell], "cli_bounds.weft");
+        let text =
+            String::from_utf8(weft_cell(&["inspect", path.to_str().unwrap()]).stdout).unwrap();
+        let line = text
+            .lines()
+            .find(|l| l.contains("Reuss <= C^H <= Voigt"))
+            .unwrap();
+        assert!(line.contains(&format!("Voigt: {table_says} ")), "{line}");
+        let out = weft_cell(&["inspect", path.to_str().unwrap(), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["cells"][0]["bounds"]["holds"], json_says, "{shrink}");
+        let lower = v["cells"][0]["bounds"]["min_eig_ch_minus_reuss"]
+            .as_f64()
+            .unwrap();
+        assert_eq!(lower < 0.0, shrink > 0.0, "{shrink}: {lower}");
+    }
+}
+
+/// Writes `text` as a cell file in the test's temporary folder.
+fn cell_file(name: &str, text: &str) -> PathBuf {
+    let path = tmp(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+const CELL: &str = r#"
+size = 0.01
+pattern = ["ab", "ba"]
+[materials.a]
+stiffness = 1000.0
+poisson = 0.3
+density = 0.2
+[materials.b]
+tensor = [[300.0, 40.0, 0.0], [40.0, 90.0, 0.0], [0.0, 0.0, 30.0]]
+density = 0.1
+"#;
+
+/// In a pipeline (stderr not a terminal) `build` prints no progress lines, only what it wrote;
+/// it warns about a material the pattern never uses; `preview` says where its picture went.
+#[test]
+fn build_and_preview_say_what_they_did_and_nothing_more() {
+    let unused = cell_file(
+        "cli_unused.toml",
+        &format!("{CELL}[materials.c]\nstiffness = 5.0\npoisson = 0.0\ndensity = 0.1\n"),
+    );
+    let blob = tmp("cli_built.weft");
+    let out = weft_cell(&[
+        "build",
+        unused.to_str().unwrap(),
+        "-o",
+        blob.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(out.status.success(), "{err}");
+    assert!(
+        !err.contains("homogenizing") && !err.contains('\r'),
+        "{err}"
+    );
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 2, "{err}");
+    assert!(
+        lines[0].contains("warning") && lines[0].contains("\"c\" is not used"),
+        "{err}"
+    );
+    assert!(
+        lines[1].starts_with(&format!("wrote {}", blob.display())),
+        "{err}"
+    );
+
+    let clean = cell_file("cli_clean.toml", CELL);
+    let out = weft_cell(&[
+        "build",
+        clean.to_str().unwrap(),
+        "-o",
+        blob.to_str().unwrap(),
+    ]);
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("warning"));
+
+    let png = tmp("cli_said.png");
+    let out = weft_cell(&[
+        "preview",
+        blob.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    assert_eq!(
+        String::from_utf8(out.stderr).unwrap().trim(),
+        format!("wrote {}", png.display())
+    );
+    assert!(png.is_file());
+}
+
+/// Errors a technical artist meets: a misspelled key (with the key meant), a tensor that is
+/// not symmetric and one that is not positive definite (told apart), a truncated blob (with
+/// both sizes).
+#[test]
+fn errors_say_what_to_fix() {
+    let build = |name: &str, text: &str| {
+        let path = cell_file(name, text);
+        let out = weft_cell(&[
+            "build",
+            path.to_str().unwrap(),
+            "-o",
+            tmp("cli_x.weft").to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let err = build(
+        "cli_typo.toml",
+        &CELL.replace("density = 0.1", "densty = 0.1"),
+    );
+    assert!(
+        err.contains("unknown key `densty`; did you mean `density`?"),
+        "{err}"
+    );
+    let err = build("cli_asym.toml", &CELL.replace("[40.0, 90.0", "[41.0, 90.0"));
+    assert!(err.contains("not symmetric") && err.contains("41"), "{err}");
+    assert!(!err.contains("positive definite"), "{err}");
+    let err = build(
+        "cli_indef.toml",
+        &CELL.replace("[0.0, 0.0, 30.0]", "[0.0, 0.0, -30.0]"),
+    );
+    assert!(err.contains("symmetric but not positive definite"), "{err}");
+
+    let whole = save(&[small_cell()], "cli_whole.weft");
+    let bytes = std::fs::read(&whole).unwrap();
+    let cut = tmp("cli_cut.weft");
+    std::fs::write(&cut, &bytes[..bytes.len() - 10]).unwrap();
+    let out = weft_cell(&["inspect", cut.to_str().unwrap()]);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(
+        err.contains(&format!(
+            "{} bytes, expected at least {}",
+            bytes.len() - 10,
+            bytes.len()
+        )),
+        "{err}"
+    );
 }
 
 #[test]

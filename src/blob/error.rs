@@ -44,8 +44,9 @@ impl Field {
 /// `section` the section-table entry index.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BlobError {
-    /// Shorter than the header, or than the total size the header announces.
-    TooShort,
+    /// Shorter than the header, or than the total size the header announces (or than a part the
+    /// section table places in it): `expected` bytes at least, `found` given.
+    TooShort { expected: u64, found: u64 },
     /// The first 8 bytes are not [`super::MAGIC`].
     BadMagic,
     /// A version this reader does not know.
@@ -116,7 +117,10 @@ impl fmt::Display for BlobError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         use BlobError::*;
         match *self {
-            TooShort => write!(f, "blob is truncated"),
+            TooShort { expected, found } => write!(
+                f,
+                "blob is truncated: {found} bytes, expected at least {expected}"
+            ),
             BadMagic => write!(f, "not a weft cell blob (bad magic)"),
             UnsupportedVersion { found } => {
                 write!(

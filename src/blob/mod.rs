@@ -232,7 +232,9 @@ impl<'a> Blob<'a> {
         if !(bytes.as_ptr() as usize).is_multiple_of(BASE_ALIGN) {
             return Err(BlobError::Misaligned);
         }
-        let body = bytes.get(HEADER_SIZE..).ok_or(BlobError::TooShort)?;
+        let body = bytes
+            .get(HEADER_SIZE..)
+            .ok_or(too_short(HEADER_SIZE as u64, bytes))?;
         let computed = crc32(body);
         if computed != header.checksum {
             return Err(BlobError::ChecksumMismatch {
@@ -352,6 +354,13 @@ fn read_u32(bytes: &[u8], at: usize) -> Option<u32> {
     Some(u32::from_le_bytes(b))
 }
 
+fn too_short(expected: u64, bytes: &[u8]) -> BlobError {
+    BlobError::TooShort {
+        expected,
+        found: bytes.len() as u64,
+    }
+}
+
 fn read_u64(bytes: &[u8], at: usize) -> Option<u64> {
     let b: [u8; 8] = bytes.get(at..at.checked_add(8)?)?.try_into().ok()?;
     Some(u64::from_le_bytes(b))
@@ -363,25 +372,24 @@ fn read_header(bytes: &[u8]) -> Result<Header, BlobError> {
     if bytes.get(..MAGIC.len()).is_some_and(|m| m != MAGIC) {
         return Err(BlobError::BadMagic);
     }
+    let short = too_short(HEADER_SIZE as u64, bytes);
     if bytes.len() < HEADER_SIZE {
-        return Err(BlobError::TooShort);
+        return Err(short);
     }
-    let r32 = |at| read_u32(bytes, at).ok_or(BlobError::TooShort);
-    let r64 = |at| read_u64(bytes, at).ok_or(BlobError::TooShort);
+    let r32 = |at| read_u32(bytes, at).ok_or(short);
+    let r64 = |at| read_u64(bytes, at).ok_or(short);
     let version = r32(H_VERSION)?;
     if version != VERSION {
         return Err(BlobError::UnsupportedVersion { found: version });
     }
-    let reserved = bytes
-        .get(H_RESERVED..HEADER_SIZE)
-        .ok_or(BlobError::TooShort)?;
+    let reserved = bytes.get(H_RESERVED..HEADER_SIZE).ok_or(short)?;
     if r32(H_HEADER_SIZE)? as usize != HEADER_SIZE || reserved.iter().any(|&b| b != 0) {
         return Err(BlobError::BadHeader);
     }
     let total = r64(H_TOTAL_SIZE)?;
     let len = bytes.len() as u64;
     if len < total {
-        return Err(BlobError::TooShort);
+        return Err(too_short(total, bytes));
     }
     if len > total {
         return Err(BlobError::TrailingBytes {
@@ -429,7 +437,7 @@ fn check_zero(bytes: &[u8], from: u64, to: u64) -> Result<(), BlobError> {
         (Ok(f), Ok(t)) => bytes.get(f..t),
         _ => None,
     }
-    .ok_or(BlobError::TooShort)?;
+    .ok_or(too_short(to, bytes))?;
     match pad.iter().position(|&b| b != 0) {
         None => Ok(()),
         Some(p) => Err(BlobError::NonZeroPadding {

@@ -450,7 +450,7 @@ pub(super) fn blob_fault(e: BlobError) -> Fault {
     let corrupt = |what: &'static CStr| fault(R::BlobCorrupt).what(what);
     let cell = |cell: u32, what: &'static CStr| fault(R::BlobInvalidCell).cell(cell).what(what);
     match e {
-        BlobError::TooShort => fault(R::BlobSize).what(c"truncated"),
+        BlobError::TooShort { .. } => fault(R::BlobSize).what(c"truncated"),
         BlobError::TrailingBytes { .. } => fault(R::BlobSize).what(c"trailing bytes"),
         BlobError::BadMagic => fault(R::BlobBadMagic),
         BlobError::UnsupportedVersion { found } => fault(R::BlobVersion).index(found),

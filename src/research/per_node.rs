@@ -197,10 +197,8 @@ fn stiffness_apply(
         for (yi, r) in y.iter_mut().zip(rot) {
             *yi = *r * *yi;
         }
-    } else {
-        if sparse::mul(k_diag, p, k_off, x, y).is_err() {
-            y.fill(Vec3A::NAN);
-        }
+    } else if sparse::mul(k_diag, p, k_off, x, y).is_err() {
+        y.fill(Vec3A::NAN);
     }
     if bending && sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y).is_err() {
         y.fill(Vec3A::NAN);

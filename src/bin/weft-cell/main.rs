@@ -58,7 +58,9 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Build { cells, out, refine } => build(&cells, &out, refine),
         Command::Inspect { blob, json } => inspect::run(&blob, json),
-        Command::Preview { blob, out } => preview::run(&blob, &out),
+        Command::Preview { blob, out } => preview::run(&blob, &out).map(|()| {
+            eprintln!("wrote {}", out.display());
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -71,13 +73,30 @@ fn main() -> ExitCode {
 
 /// `build`: homogenize every cell, then write the blob (nothing is written on any error).
 fn build(cells: &[PathBuf], out: &std::path::Path, refine: usize) -> Result<(), String> {
-    use std::io::Write;
+    use std::io::{IsTerminal, Write};
     if refine == 0 || refine > 64 {
         return Err(format!("--refine must be between 1 and 64, got {refine}"));
     }
+    // Allowed, but usually a typo in the pattern: said before the (long) homogenization. A file
+    // that does not load is reported by `build_blob` below, with the others' context.
+    for path in cells {
+        if let Ok(desc) = weft::cell::load(path) {
+            for key in desc.unused_materials() {
+                eprintln!(
+                    "weft-cell: warning: {}: material {key:?} is not used by the pattern",
+                    path.display()
+                );
+            }
+        }
+    }
     let started = std::time::Instant::now();
+    // Progress only for a person watching: in a log or a pipeline it would be noise.
+    let terminal = std::io::stderr().is_terminal();
     let mut last = usize::MAX;
     let mut report = |cell: usize, fraction: f64| {
+        if !terminal {
+            return;
+        }
         // one line per cell, refreshed in place on a terminal
         let name = cells
             .get(cell)
@@ -91,10 +110,14 @@ fn build(cells: &[PathBuf], out: &std::path::Path, refine: usize) -> Result<(), 
         let _ = std::io::stderr().flush();
     };
     let bytes = weft::homogenize::build_blob(cells, refine, &mut report).map_err(|e| {
-        eprintln!();
+        if terminal {
+            eprintln!();
+        }
         e.to_string()
     })?;
-    eprintln!();
+    if terminal {
+        eprintln!();
+    }
     std::fs::write(out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
     eprintln!(
         "wrote {} ({} cells, {} bytes) in {:.0} ms",

@@ -22,11 +22,20 @@ pub struct Plot {
     pub series: Vec<Series>,
 }
 
-/// Colour-blind-friendly (Okabe–Ito) and a few more.
-pub const COLOURS: [&str; 10] = [
+/// Colour-blind-friendly (Okabe–Ito, then Tol's muted set), pairwise distinct: a plot with up to
+/// this many series never repeats a colour ([`style`] changes the marker beyond that).
+pub const COLOURS: [&str; 16] = [
     "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#F0E442",
-    "#882255", "#999999",
+    "#882255", "#999999", "#332288", "#117733", "#AA4499", "#661100", "#44AA99", "#DDCC77",
 ];
+
+/// Colour and marker of series `k` of a plot: distinct for every `k` below 4 × 16.
+pub fn style(k: usize) -> (&'static str, char) {
+    (
+        COLOURS[k % COLOURS.len()],
+        ['o', 's', '^', 'x'][(k / COLOURS.len()) % 4],
+    )
+}
 
 const W: f64 = 560.0;
 const H: f64 = 400.0;
@@ -157,7 +166,19 @@ impl Plot {
         let sx = |v: f64| LEFT + xa.frac(v) * pw;
         let sy = |v: f64| TOP + (1.0 - ya.frac(v)) * ph;
         let total_w = W + LEGEND_W;
-        let legend_h = 20.0 + 18.0 * self.series.len() as f64;
+        let visible = |p: &(f64, f64)| {
+            p.0.is_finite()
+                && p.1.is_finite()
+                && (!self.x_log || p.0 > 0.0)
+                && (!self.y_log || p.1 > 0.0)
+        };
+        // A series with nothing to draw (a timing-only case) gets no legend entry either.
+        let drawn: Vec<&Series> = self
+            .series
+            .iter()
+            .filter(|s| s.points.iter().any(visible))
+            .collect();
+        let legend_h = 20.0 + 18.0 * drawn.len() as f64;
         let total_h = H.max(legend_h + TOP);
         let mut o = String::new();
         let _ = writeln!(
@@ -208,13 +229,7 @@ impl Plot {
             TOP + ph / 2.0,
             esc(&self.y_label)
         );
-        let visible = |p: &(f64, f64)| {
-            p.0.is_finite()
-                && p.1.is_finite()
-                && (!self.x_log || p.0 > 0.0)
-                && (!self.y_log || p.1 > 0.0)
-        };
-        for s in &self.series {
+        for s in &drawn {
             let shown: Vec<_> = s.points.iter().filter(|p| visible(p)).collect();
             if s.line && shown.len() > 1 {
                 let d: Vec<String> = shown
@@ -238,7 +253,7 @@ impl Plot {
             }
         }
         // legend
-        for (k, s) in self.series.iter().enumerate() {
+        for (k, s) in drawn.iter().enumerate() {
             let y = TOP + 10.0 + 18.0 * k as f64;
             let x = W + 6.0;
             if s.line {
@@ -265,5 +280,53 @@ impl Plot {
         }
         o.push_str("</svg>\n");
         o
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn series(name: &str, points: Vec<(f64, f64)>) -> Series {
+        Series {
+            name: name.into(),
+            colour: COLOURS[0],
+            points,
+            line: true,
+            dashed: false,
+            marker: 'o',
+        }
+    }
+
+    #[test]
+    fn a_series_without_drawable_points_has_no_legend_entry() {
+        let svg = Plot {
+            title: "t".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            x_log: true,
+            y_log: true,
+            series: vec![
+                series("drawn", vec![(1.0, 1.0), (2.0, 0.5)]),
+                series("timing only", vec![]),
+                series("not on a log axis", vec![(0.0, 1.0)]),
+            ],
+        }
+        .svg();
+        assert!(svg.contains(">drawn</text>"));
+        assert!(!svg.contains("timing only"));
+        assert!(!svg.contains("not on a log axis"));
+    }
+
+    #[test]
+    fn styles_are_distinct() {
+        let styles: Vec<_> = (0..4 * COLOURS.len()).map(style).collect();
+        for (i, a) in styles.iter().enumerate() {
+            assert!(!styles[..i].contains(a), "style {i} repeats");
+        }
+        let mut colours = COLOURS.to_vec();
+        colours.sort_unstable();
+        colours.dedup();
+        assert_eq!(colours.len(), COLOURS.len());
     }
 }

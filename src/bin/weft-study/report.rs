@@ -6,7 +6,7 @@ use std::path::Path;
 
 use glam::Vec3A;
 
-use crate::plot::{Plot, Series, COLOURS};
+use crate::plot::{style, Plot, Series, COLOURS};
 use crate::preview::{Image, INK};
 use crate::render::{self, Camera, Depth, Panel};
 use crate::scenes::Kind;
@@ -688,7 +688,7 @@ fn pareto_plots(rows: &[Row]) -> (String, Vec<(String, String)>) {
     }
     let mut fronts = Vec::new();
     let mut per_case = Vec::new();
-    for (c, k) in keys.iter().enumerate() {
+    for k in &keys {
         let name = format!(
             "{} {}{}",
             k.0,
@@ -721,6 +721,10 @@ fn pareto_plots(rows: &[Row]) -> (String, Vec<(String, String)>) {
             if r.mode.is_some_and(Mode::is_on) {
                 front_pts.push((r.frame_ms(), r.err_mean));
             }
+        }
+        if groups.is_empty() {
+            // A timing-only case (no error measured): nothing to plot.
+            continue;
         }
         let reference_ms = reference_of(rows, k).map(|r| r.ms_per_step);
         let mut series: Vec<Series> = groups
@@ -782,13 +786,14 @@ fn pareto_plots(rows: &[Row]) -> (String, Vec<(String, String)>) {
             }
             .svg(),
         ));
+        let (colour, marker) = style(fronts.len());
         fronts.push(Series {
             name,
-            colour: COLOURS[c % COLOURS.len()],
+            colour,
             points: front,
             line: true,
             dashed: false,
-            marker: 'o',
+            marker,
         });
     }
     let combined = Plot {
@@ -987,4 +992,84 @@ fn heat(t: f32) -> [u8; 3] {
         }
     }
     [140, 0, 20]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scene: &str, material: &str, mode: Option<Mode>, err: f64, status: &str) -> Row {
+        Row {
+            scene: scene.into(),
+            cell: "three".into(),
+            material: material.into(),
+            coarse_res: (material != "fine").then_some(1),
+            strain: None,
+            cg_tol: Knobs::BASE.tol,
+            cg_max_iter: 200,
+            substeps: 1,
+            warping: true,
+            solver: "multigrid",
+            mode,
+            ms_per_step: 1.0 + err,
+            localize_ms: mode.map(|_| 0.5),
+            err_mean: err,
+            err_max: err,
+            err_mean_aligned: err,
+            err_normal_deg: 0.0,
+            cg_iters: 10.0,
+            fine_vertices: 100,
+            fine_triangles: 200,
+            coarse_vertices: Some(9),
+            sheet_m: 0.2,
+            max_speed: 0.0,
+            status: status.into(),
+        }
+    }
+
+    /// Sixteen cases with errors and one timing-only case: the combined plot has a legend entry
+    /// in its own colour and marker for each of the sixteen and none for the timing-only one,
+    /// which also gets no SVG of its own.
+    #[test]
+    fn pareto_plots_skip_timing_only_cases_and_never_repeat_a_style() {
+        let mut rows = Vec::new();
+        for c in 0..16 {
+            let scene = format!("case{c:02}");
+            rows.push(row(&scene, "fine", None, 0.0, "ok"));
+            rows.push(row(
+                &scene,
+                "homogenized",
+                Some(ON),
+                1e-3 * (c + 1) as f64,
+                "ok",
+            ));
+            // slower and more accurate: a front of two points, drawn as a line
+            let mut better = row(&scene, "homogenized", Some(ON), 1e-4, "ok");
+            better.ms_per_step = 5.0;
+            rows.push(better);
+        }
+        rows.push(row("bench", "fine", None, 0.0, "timing only"));
+        rows.push(row(
+            "bench",
+            "homogenized",
+            Some(ON),
+            f64::NAN,
+            "timing only",
+        ));
+        let (combined, per_case) = pareto_plots(&rows);
+        assert_eq!(per_case.len(), 16);
+        assert!(per_case.iter().all(|(name, _)| !name.contains("bench")));
+        assert!(!combined.contains("bench"));
+        let legend = combined.lines().filter(|l| l.contains(">case")).count();
+        assert_eq!(legend, 16);
+        let mut styles: Vec<String> = combined
+            .lines()
+            .filter(|l| l.starts_with("<polyline"))
+            .map(|l| l.split("stroke=").nth(1).unwrap_or("").to_string())
+            .collect();
+        assert_eq!(styles.len(), 16);
+        styles.sort();
+        styles.dedup();
+        assert_eq!(styles.len(), 16, "a colour is reused");
+    }
 }

@@ -6,16 +6,18 @@
 //!    quad) onto a sphere and the floor, and every step localizes the cell's own micro mesh
 //!    tiled over the whole cloth (§6) onto it; prints the per-step cost of the coarse step and
 //!    of the localization;
-//! 3. writes the fine (localized) mesh every 30 steps as `out/drape-<cell>-<step>.obj` (with
-//!    uv, normals and one material per cell material, `out/drape.mtl`, for Blender & co.) and
-//!    renders the last frames as `out/drape.png`.
+//! 3. writes the fine (localized) mesh as one animated glTF binary, `out/drape-<cell>.glb`
+//!    (a frame every 0.1 s with the sphere and the floor; Blender and web viewers play it), its
+//!    last frame as `out/drape-<cell>.obj` (uv, normals, one material per cell material,
+//!    `out/drape.mtl`), and renders the last frames as `out/drape.png`.
 
-#[path = "weft-cell/inspect.rs"]
+mod glb;
+#[path = "../weft-cell/inspect.rs"]
 mod inspect;
-#[path = "weft-cell/preview.rs"]
+#[path = "../weft-cell/preview.rs"]
 mod preview;
 #[allow(dead_code)]
-#[path = "weft-study/render.rs"]
+#[path = "../weft-study/render.rs"]
 mod render;
 
 use std::fmt::Write as _;
@@ -32,11 +34,12 @@ use weft::world::{Capacity, ClothDef, Settings, World};
 use preview::{material_colour, Image, INK};
 use render::{Camera, Depth, Panel};
 
-/// Coarse vertices per side, sheet size (m), steps, OBJ every this many steps.
+/// Coarse vertices per side, sheet size (m), steps of 1/60 s, an animation frame every this
+/// many steps.
 const N: usize = 31;
 const SIZE: f32 = 0.3;
 const STEPS: usize = 120;
-const OBJ_EVERY: usize = 30;
+const FRAME_EVERY: usize = 6;
 const SPHERE_RADIUS: f32 = 0.09;
 const FLOOR: f32 = -0.09;
 
@@ -70,9 +73,9 @@ fn run() -> Result<(), String> {
         blob_path.display()
     );
     inspect::run(&blob_path, false)?;
-    let png = out.join("cells.png");
-    preview::run(&blob_path, &png)?;
-    println!("preview → {}\n", png.display());
+    let cells_png = out.join("cells.png");
+    preview::run(&blob_path, &cells_png)?;
+    println!("preview → {}\n", cells_png.display());
 
     // 2. runtime
     let aligned = load_aligned(&blob_path).map_err(|e| format!("{}: {e}", blob_path.display()))?;
@@ -84,7 +87,31 @@ fn run() -> Result<(), String> {
     }
     let png = out.join("drape.png");
     picture(&shots).save_png(&png)?;
-    println!("\npicture of the last frames → {}", png.display());
+    println!("\noutputs in {}:", out.display());
+    let mut outputs = vec![
+        (
+            "cells.weft".to_string(),
+            "the cell blob (weft-cell inspect reads it)",
+        ),
+        (
+            "cells.png".into(),
+            "the cells' materials and micro-deformations",
+        ),
+    ];
+    for s in &shots {
+        outputs.push((
+            format!("drape-{}.glb", s.name),
+            "the localized fine mesh, animated: open in Blender or a glTF viewer, press play",
+        ));
+        outputs.push((
+            format!("drape-{}.obj", s.name),
+            "its last frame (materials in drape.mtl)",
+        ));
+    }
+    outputs.push(("drape.png".into(), "the last frames: fine, coarse, zoom"));
+    for (file, what) in outputs {
+        println!("  {file:<18} {what}");
+    }
     Ok(())
 }
 
@@ -185,11 +212,15 @@ fn drape(blob: &Blob<'_>, cell: u32, out: &Path) -> Result<Shot, String> {
 
     let (mut step_ms, mut loc_ms) = (Vec::new(), Vec::new());
     let mut iterations = 0u64;
-    for s in 1..=STEPS {
-        let t = Instant::now();
-        let stats = world.step().map_err(|e| format!("step {s}: {e:?}"))?;
-        step_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        iterations += u64::from(stats.iterations);
+    let mut frames_out = Vec::new();
+    // Step 0 localizes the rest state: the animation's first frame.
+    for s in 0..=STEPS {
+        if s > 0 {
+            let t = Instant::now();
+            let stats = world.step().map_err(|e| format!("step {s}: {e:?}"))?;
+            step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            iterations += u64::from(stats.iterations);
+        }
         let t = Instant::now();
         localize::prepare(&world, StrainMeasure::Corotated, &mut frames)
             .map_err(|e| e.to_string())?;
@@ -204,12 +235,15 @@ fn drape(blob: &Blob<'_>, cell: u32, out: &Path) -> Result<Shot, String> {
             ))),
         )
         .map_err(|e| e.to_string())?;
-        loc_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        if s % OBJ_EVERY == 0 {
-            let path = out.join(format!("drape-{name}-{s:03}.obj"));
-            write_obj(
-                &path, &name, &fine_x, &fine_n, &fine_uv, &fine_tris, &fine_mats,
-            )?;
+        if s > 0 {
+            loc_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+        if s % FRAME_EVERY == 0 {
+            frames_out.push(glb::Frame {
+                time: s as f32 / 60.0,
+                positions: fine_x.clone(),
+                normals: fine_n.clone(),
+            });
         }
     }
     let med = |v: &mut Vec<f64>| {
@@ -223,10 +257,54 @@ fn drape(blob: &Blob<'_>, cell: u32, out: &Path) -> Result<Shot, String> {
         med(&mut loc_ms.clone()),
         med(&mut step_ms) + med(&mut loc_ms),
     );
+    let obj = out.join(format!("drape-{name}.obj"));
+    write_obj(
+        &obj, &name, &fine_x, &fine_n, &fine_uv, &fine_tris, &fine_mats,
+    )?;
+    let path = out.join(format!("drape-{name}.glb"));
+    let scenery = Scenery::new();
+    let xyz = |v: &[Vec3A]| v.iter().map(|p| p.to_array()).collect::<Vec<_>>();
+    let sphere_n: Vec<[f32; 3]> = scenery
+        .sphere_x
+        .iter()
+        .map(|p| (*p / SPHERE_RADIUS).to_array())
+        .collect();
+    let bytes = glb::write(
+        &glb::Animated {
+            name: &name,
+            uvs: &fine_uv
+                .iter()
+                .map(|t| t.map(|c| c / SIZE))
+                .collect::<Vec<_>>(),
+            triangles: &fine_tris,
+            materials: &fine_mats,
+            colour: &material_colour,
+            frames: &frames_out,
+        },
+        &[
+            glb::Static {
+                name: "sphere",
+                positions: &xyz(&scenery.sphere_x),
+                normals: Some(&sphere_n),
+                triangles: &scenery.sphere_t,
+                colour: SPHERE_COLOUR,
+            },
+            glb::Static {
+                name: "floor",
+                positions: &xyz(&scenery.floor_x),
+                normals: None,
+                triangles: &scenery.floor_t,
+                colour: FLOOR_COLOUR,
+            },
+        ],
+    );
+    std::fs::write(&path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     println!(
-        "  fine frames → {}",
-        out.join(format!("drape-{name}-NNN.obj (every {OBJ_EVERY} steps)"))
-            .display()
+        "  {} frames → {} ({:.1} MB), last frame → {}",
+        frames_out.len(),
+        path.display(),
+        bytes.len() as f64 / 1e6,
+        obj.display()
     );
     Ok(Shot {
         name,
@@ -291,6 +369,30 @@ fn write_obj(
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+const SPHERE_COLOUR: [u8; 3] = [200, 200, 200];
+const FLOOR_COLOUR: [u8; 3] = [225, 215, 200];
+
+/// The colliders as meshes, for the picture and the glTF.
+struct Scenery {
+    sphere_x: Vec<Vec3A>,
+    sphere_t: Vec<[u32; 3]>,
+    floor_x: [Vec3A; 4],
+    floor_t: [[u32; 3]; 2],
+}
+
+impl Scenery {
+    fn new() -> Scenery {
+        let (sphere_x, sphere_t) = render::sphere_mesh(Vec3A::ZERO, SPHERE_RADIUS, 24);
+        let f = 0.3;
+        Scenery {
+            sphere_x,
+            sphere_t,
+            floor_x: [(-f, -f), (f, -f), (f, f), (-f, f)].map(|(x, y)| Vec3A::new(x, y, FLOOR)),
+            floor_t: [[0, 1, 2], [0, 2, 3]],
+        }
+    }
+}
+
 /// The last frame of each drape: the localized fine mesh (coloured by material), the coarse
 /// cloth it came from, and a zoom on the fine mesh.
 fn picture(shots: &[Shot]) -> Image {
@@ -300,11 +402,14 @@ fn picture(shots: &[Shot]) -> Image {
     let width = 2 * GAP + 3 * P + 2 * GAP;
     let height = GAP + shots.len() * (LABEL + P + GAP);
     let mut img = Image::new(width, height);
-    let toward = Vec3A::new(0.55, -0.75, 0.5).normalize();
-    let (sphere_x, sphere_t) = render::sphere_mesh(Vec3A::ZERO, SPHERE_RADIUS, 24);
-    let f = 0.3;
-    let floor_x = [(-f, -f), (f, -f), (f, f), (-f, f)].map(|(x, y)| Vec3A::new(x, y, FLOOR));
-    let floor_t = [[0u32, 1, 2], [0, 2, 3]];
+    // Low enough (15° above the floor) to see the sphere under the cloth's hem.
+    let toward = Vec3A::new(0.55, -0.75, 0.25).normalize();
+    let Scenery {
+        sphere_x,
+        sphere_t,
+        floor_x,
+        floor_t,
+    } = Scenery::new();
     for (row, s) in shots.iter().enumerate() {
         let y = GAP + row * (LABEL + P + GAP) + LABEL;
         let panels = [0, 1, 2].map(|c| Panel {
@@ -320,14 +425,16 @@ fn picture(shots: &[Shot]) -> Image {
             &panels[0],
             10.0,
         );
-        // zoom on the fine mesh near the sphere's top
-        let top = s
+        // Zoom on the cloth where it lies on the sphere halfway between facing the camera and
+        // facing up: 4 cm of cloth around it all face the camera, so they fill the panel.
+        let aim = (toward + Vec3A::Z).normalize() * SPHERE_RADIUS;
+        let focus = s
             .positions
             .iter()
             .copied()
-            .max_by(|a, b| a.z.total_cmp(&b.z))
-            .unwrap_or(Vec3A::ZERO);
-        let zoom = cam.zoomed(top, P as f32 / 0.04);
+            .min_by(|a, b| a.distance_squared(aim).total_cmp(&b.distance_squared(aim)))
+            .unwrap_or(aim);
+        let zoom = cam.zoomed(focus, P as f32 / 0.04);
         let labels = [
             format!("{}: {} fine tri.", s.name, s.triangles.len()),
             format!("coarse: {} tri.", s.coarse_triangles.len()),
@@ -344,7 +451,7 @@ fn picture(shots: &[Shot]) -> Image {
                 camera,
                 &floor_x,
                 &floor_t,
-                &|_| [225, 215, 200],
+                &|_| FLOOR_COLOUR,
                 None,
             );
             render::draw_mesh_with(
@@ -353,7 +460,7 @@ fn picture(shots: &[Shot]) -> Image {
                 camera,
                 &sphere_x,
                 &sphere_t,
-                &|_| [200, 200, 200],
+                &|_| SPHERE_COLOUR,
                 None,
             );
             if c == 1 {
