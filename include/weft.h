@@ -191,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3926560
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3992096
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
@@ -1255,6 +1255,22 @@ uint32_t weft_world_vertex_count(const struct WeftWorld *world);
 uint32_t weft_world_triangle_count(const struct WeftWorld *world);
 
 /**
+ * Copies the masses (kg) of vertices `first .. first + count - 1` out: vertex `first + k`'s
+ * mass to byte `k * stride` of `out` (written unaligned, `stride` ≥ 4). The masses are the
+ * lumped masses of the triangles' densities times the mass scales
+ * (`weft_world_set_mass_scales`).
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 4` bytes and does not overlap the world's memory block.
+ */
+WeftResult weft_world_get_masses(const struct WeftWorld *world,
+                                 uint32_t first,
+                                 uint32_t count,
+                                 void *out,
+                                 size_t stride);
+
+/**
  * Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
  * `i * stride` of `out`, written unaligned (so straight into an interleaved vertex buffer).
  * `count` is the capacity of `out` in vertices, ≥ `weft_world_vertex_count`; exactly that
@@ -1305,6 +1321,59 @@ WeftResult weft_world_set_velocities(struct WeftWorld *world,
                                      const void *src,
                                      uint32_t count,
                                      size_t stride);
+
+/**
+ * Adds forces (newtons) to vertices `first .. first + count - 1` for the next
+ * `weft_world_step`: vertex `first + k` gets the 3 floats at byte `k * stride` of `src`
+ * (read unaligned, `stride` ≥ 12), added to what was applied since the last step. They act
+ * constantly over that step and are then cleared: apply a lasting force every frame. Their
+ * work enters the step's energy balance as input, like gravity's. Checks every value first
+ * (`WEFT_RESULT_NON_FINITE` names the vertex); nothing changes on failure. Wakes the world
+ * when any force is non-zero.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 12` bytes.
+ */
+WeftResult weft_world_add_forces(struct WeftWorld *world,
+                                 uint32_t first,
+                                 uint32_t count,
+                                 const void *src,
+                                 size_t stride);
+
+/**
+ * Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
+ * `weft_world_add_forces`: each vertex's velocity changes by `impulse / mass` at once, so the
+ * next step starts from it (a pinned vertex stays held). Checks every value first; nothing
+ * changes on failure. Wakes the world when any impulse is non-zero.
+ *
+ * # Safety
+ * As `weft_world_add_forces`.
+ */
+WeftResult weft_world_add_impulses(struct WeftWorld *world,
+                                   uint32_t first,
+                                   uint32_t count,
+                                   const void *src,
+                                   size_t stride);
+
+/**
+ * Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
+ * becomes the lumped mass its triangles' density gives it times the float at byte
+ * `k * stride` of `src` (`stride` ≥ 4), e.g. 3 along a hem for a heavier edge. The step uses
+ * these masses for inertia, gravity and damping; scales replace earlier ones (1 restores the
+ * material's mass). A scale must be finite and > 0 and the mass it gives a normal `float`
+ * (`WEFT_RESULT_INVALID_ARGUMENT`, `detail.what` "scales", `detail.vertex` the vertex).
+ * Checks every value first; nothing changes on failure. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 4` bytes.
+ */
+WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
+                                      uint32_t first,
+                                      uint32_t count,
+                                      const void *src,
+                                      size_t stride);
 
 /**
  * Pins vertex `vertex` to `target` (metres), or moves its pin there. The vertex travels to the

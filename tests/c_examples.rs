@@ -209,6 +209,25 @@ fn hello_c() {
     assert!(m1 > 5.0 * m0 && m0 > 0.0, "{s:?}");
 }
 
+/// The engine calls beyond create and step (`c_examples/engine_api.c`): each is checked in C
+/// against what it must do and prints "ok" or "WRONG".
+#[test]
+fn engine_api_c() {
+    let out = run_everywhere(
+        "engine_api.c",
+        &[],
+        &[
+            "a force changes the momentum by F dt: ok",
+            "forces last one step: ok",
+            "an impulse changes the momentum by J: ok",
+            "a heavier hem: ok",
+            "engine_api: ok",
+        ],
+    );
+    print!("{out}");
+    assert!(!out.contains("WRONG") && !out.contains("FAILED"), "{out}");
+}
+
 #[test]
 fn engine_loop_c() {
     let obj = work_dir("engine_loop").join("last_frame.obj");

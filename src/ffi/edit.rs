@@ -1,6 +1,6 @@
 //! Editing a live world: vertex positions and velocities in and out, pins, colliders.
 
-use core::ffi::c_void;
+use core::ffi::{c_void, CStr};
 
 use glam::Vec3A;
 
@@ -9,6 +9,7 @@ use super::result::{edit_fault, fault};
 use super::types::*;
 use super::*;
 use crate::collide::Collider;
+use crate::strided::Strided;
 use crate::world::{EditError, World};
 
 /// # Safety
@@ -35,6 +36,63 @@ unsafe fn get_vec3s(
         put_vec3s(&mut out, src);
         Ok(())
     })())
+}
+
+/// Copies `count` per-vertex values of vertices `first..first + count` out: vertex
+/// `first + k`'s `N` floats (`value(world, first + k)`) to byte `k * stride` of `out`. The
+/// range is checked first (`VERTEX_OUT_OF_RANGE`, `detail.needed` the vertex count).
+///
+/// # Safety
+/// `out` writable for the strided extent; `world` as [`world_at`].
+unsafe fn get_range<const N: usize>(
+    world: *const WeftWorld,
+    first: u32,
+    count: u32,
+    out: *mut c_void,
+    stride: usize,
+    value: fn(&World<'static>, usize) -> Option<[f32; N]>,
+) -> WeftResult {
+    done((|| {
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let n = w.world.vertex_count();
+        let (first, count) = (first as usize, count as usize);
+        if first.checked_add(count).is_none_or(|end| end > n) {
+            let mut f = fault(WeftResult::VertexOutOfRange).what(c"first + count");
+            f.needed = n as u32;
+            return Err(f.vertex(count32(first.saturating_add(count).saturating_sub(1))));
+        }
+        // SAFETY: writable for the extent per the contract, disjoint from the world.
+        let mut out = unsafe { strided_out::<N>(out, count, stride, c"out", c"stride") }?;
+        for k in 0..count {
+            out.set(k, value(&w.world, first + k).unwrap_or([0.0; N]));
+        }
+        Ok(())
+    })())
+}
+
+/// Copies the masses (kg) of vertices `first .. first + count - 1` out: vertex `first + k`'s
+/// mass to byte `k * stride` of `out` (written unaligned, `stride` ≥ 4). The masses are the
+/// lumped masses of the triangles' densities times the mass scales
+/// (`weft_world_set_mass_scales`).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+/// `(count - 1) * stride + 4` bytes and does not overlap the world's memory block.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_get_masses(
+    world: *const WeftWorld,
+    first: u32,
+    count: u32,
+    out: *mut c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        get_range(world, first, count, out, stride, |w, i| {
+            w.masses().get(i).map(|&m| [m])
+        })
+    }
 }
 
 /// Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
@@ -71,6 +129,47 @@ pub unsafe extern "C" fn weft_world_get_velocities(
     unsafe { get_vec3s(world, out, count, stride, |w| w.velocities()) }
 }
 
+/// An edit of the world from `count` groups of `N` floats at `src` (`stride` bytes apart) for
+/// the vertices `first..first + count`: the range is checked against the vertex count
+/// (`VERTEX_OUT_OF_RANGE`, `detail.needed` the vertex count), then the kernel checks every
+/// value before it changes anything; a non-finite value is named by its vertex.
+///
+/// # Safety
+/// `src` readable for the strided extent; `world` as [`world_mut`].
+unsafe fn edit_range<const N: usize>(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+    what: &'static CStr,
+    edit: for<'w> fn(&mut World<'static>, usize, &Strided<'w, N>) -> Result<(), EditError>,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            let n = w.world.vertex_count();
+            let (first, count) = (first as usize, count as usize);
+            if first.checked_add(count).is_none_or(|end| end > n) {
+                let mut f = fault(WeftResult::VertexOutOfRange).what(c"first + count");
+                f.needed = n as u32;
+                return Err(f.vertex(count32(first.saturating_add(count).saturating_sub(1))));
+            }
+            let src = strided_in::<N>(src, count, stride, what, c"stride")?;
+            edit(&mut w.world, first, &src).map_err(|e| match e {
+                EditError::NonFinite => {
+                    let finite = |i| src.get(i).is_some_and(|p| p.iter().all(|c| c.is_finite()));
+                    let vertex = (0..count)
+                        .find(|&i| !finite(i))
+                        .map_or(WEFT_NONE, |i| count32(first + i));
+                    fault(WeftResult::NonFinite).what(what).vertex(vertex)
+                }
+                e => edit_fault(e, &w.world),
+            })
+        })
+    }
+}
+
 /// # Safety
 /// `src` readable for the strided extent; `world` as [`world_mut`].
 unsafe fn set_vec3s(
@@ -80,36 +179,35 @@ unsafe fn set_vec3s(
     stride: usize,
     velocities: bool,
 ) -> WeftResult {
-    let what = if velocities {
-        c"velocities"
-    } else {
-        c"positions"
-    };
     // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let n = w.world.vertex_count();
-            if count as usize != n {
+    let n = unsafe { world_at(world) }.map_or(0, |w| w.world.vertex_count());
+    if count as usize != n {
+        // SAFETY: forwarded contract.
+        return unsafe {
+            with_world(world, |_| {
                 let mut f = fault(WeftResult::CountMismatch).what(c"count");
                 f.needed = n as u32;
-                return Err(f);
-            }
-            let src = strided_in::<3>(src, n, stride, what, c"stride")?;
-            let r = if velocities {
-                w.world.set_velocities_strided(&src)
-            } else {
-                w.world.set_positions_strided(&src)
-            };
-            // The kernel checks every value first; the detail names the first bad vertex.
-            r.map_err(|e| match e {
-                EditError::NonFinite => {
-                    let finite = |i| src.get(i).is_some_and(|p| p.iter().all(|c| c.is_finite()));
-                    let vertex = (0..n).find(|&i| !finite(i)).map_or(WEFT_NONE, count32);
-                    fault(WeftResult::NonFinite).what(what).vertex(vertex)
-                }
-                e => edit_fault(e, &w.world),
+                Err(f)
             })
-        })
+        };
+    }
+    // SAFETY: forwarded contract.
+    unsafe {
+        if velocities {
+            edit_range(
+                world,
+                0,
+                count,
+                src,
+                stride,
+                c"velocities",
+                |w, first, s| w.set_velocities_range(first, s),
+            )
+        } else {
+            edit_range(world, 0, count, src, stride, c"positions", |w, first, s| {
+                w.set_positions_range(first, s)
+            })
+        }
     }
 }
 
@@ -145,6 +243,101 @@ pub unsafe extern "C" fn weft_world_set_velocities(
 ) -> WeftResult {
     // SAFETY: forwarded contract.
     unsafe { set_vec3s(world, src, count, stride, true) }
+}
+
+/// Adds forces (newtons) to vertices `first .. first + count - 1` for the next
+/// `weft_world_step`: vertex `first + k` gets the 3 floats at byte `k * stride` of `src`
+/// (read unaligned, `stride` ≥ 12), added to what was applied since the last step. They act
+/// constantly over that step and are then cleared: apply a lasting force every frame. Their
+/// work enters the step's energy balance as input, like gravity's. Checks every value first
+/// (`WEFT_RESULT_NON_FINITE` names the vertex); nothing changes on failure. Wakes the world
+/// when any force is non-zero.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+/// `(count - 1) * stride + 12` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_add_forces(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        edit_range(
+            world,
+            first,
+            count,
+            src,
+            stride,
+            c"forces",
+            World::add_forces,
+        )
+    }
+}
+
+/// Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
+/// `weft_world_add_forces`: each vertex's velocity changes by `impulse / mass` at once, so the
+/// next step starts from it (a pinned vertex stays held). Checks every value first; nothing
+/// changes on failure. Wakes the world when any impulse is non-zero.
+///
+/// # Safety
+/// As `weft_world_add_forces`.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_add_impulses(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        edit_range(
+            world,
+            first,
+            count,
+            src,
+            stride,
+            c"impulses",
+            World::add_impulses,
+        )
+    }
+}
+
+/// Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
+/// becomes the lumped mass its triangles' density gives it times the float at byte
+/// `k * stride` of `src` (`stride` ≥ 4), e.g. 3 along a hem for a heavier edge. The step uses
+/// these masses for inertia, gravity and damping; scales replace earlier ones (1 restores the
+/// material's mass). A scale must be finite and > 0 and the mass it gives a normal `float`
+/// (`WEFT_RESULT_INVALID_ARGUMENT`, `detail.what` "scales", `detail.vertex` the vertex).
+/// Checks every value first; nothing changes on failure. Wakes the world.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+/// `(count - 1) * stride + 4` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_mass_scales(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        edit_range(
+            world,
+            first,
+            count,
+            src,
+            stride,
+            c"scales",
+            World::set_mass_scales,
+        )
+    }
 }
 
 /// Pins vertex `vertex` to `target` (metres), or moves its pin there. The vertex travels to the

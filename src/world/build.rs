@@ -7,8 +7,8 @@
 
 use glam::Vec3A;
 
+use super::{copy_live, Solver, StridedClothDef, TriangleMaterials, World};
 use super::{memory, Capacity, ClothDef, InitError, Materials, Settings, StepStats};
-use super::{Solver, StridedClothDef, TriangleMaterials, World};
 use crate::bending;
 use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
@@ -256,6 +256,7 @@ impl<'a> World<'a> {
             }
         }
         self.total_mass = total_mass;
+        copy_live(a.rest_mass, a.mass, n);
 
         // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
         // stiffness of its two triangles.

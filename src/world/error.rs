@@ -120,6 +120,10 @@ pub enum EditError {
     ColliderCapacity,
     ColliderOutOfRange,
     InvalidCollider,
+    /// A mass scale that is not finite and positive, or gives a mass beyond `f32`.
+    InvalidMassScale {
+        vertex: u32,
+    },
 }
 
 impl fmt::Display for InitError {
@@ -178,6 +182,12 @@ impl fmt::Display for StepError {
 
 impl fmt::Display for EditError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let EditError::InvalidMassScale { vertex } = self {
+            return write!(
+                f,
+                "the mass scale of vertex {vertex} is not positive, or its mass is beyond f32"
+            );
+        }
         f.write_str(match self {
             EditError::VertexOutOfRange => "vertex index or count out of range",
             EditError::NonFinite => "a value is NaN or infinite",
@@ -185,6 +195,7 @@ impl fmt::Display for EditError {
             EditError::ColliderCapacity => "no room for another collider",
             EditError::ColliderOutOfRange => "no collider with that index",
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
+            EditError::InvalidMassScale { .. } => "invalid mass scale",
         })
     }
 }

@@ -129,8 +129,13 @@ arrays! { cap;
     dv_start: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Rest positions `(u, v, 0)`.
     rest: Vec3A = [cap.v(); Vec3A::ZERO],
-    /// Lumped masses (kg).
+    /// Lumped masses (kg): the step's, `rest_mass` times the vertex's mass scale.
     mass: f32 = [cap.v(); 0.0],
+    /// Lumped masses from the materials' densities at init (kg), what a mass scale scales.
+    rest_mass: f32 = [cap.v(); 0.0],
+    /// Forces the engine applied for the next step (N), constant over it, cleared after it
+    /// (packed: the 64×64 default world stays within 4 MB).
+    applied_force: [f32; 3] = [cap.v(); [0.0; 3]],
     /// Lumped area (m²), for wind.
     area: f32 = [cap.v(); 0.0],
     triangles: [u32; 3] = [cap.t(); [0; 3]],

@@ -130,15 +130,29 @@ fn check_vertex_input(input: &Strided<'_, 3>, n: usize) -> Result<(), EditError>
     if input.count() != n {
         return Err(EditError::VertexOutOfRange);
     }
+    check_range_input(input, 0, n).map(|_| ())
+}
+
+/// A vertex-range input of the edit functions: entries for vertices `first..first + count`,
+/// all below `n`, every value finite. Returns the range.
+fn check_range_input<const N: usize>(
+    input: &Strided<'_, N>,
+    first: usize,
+    n: usize,
+) -> Result<core::ops::Range<usize>, EditError> {
+    let end = first
+        .checked_add(input.count())
+        .filter(|&end| end <= n)
+        .ok_or(EditError::VertexOutOfRange)?;
     let finite = |i| {
         input
             .get(i)
             .is_some_and(|p| p.iter().all(|c| c.is_finite()))
     };
-    if !(0..n).all(finite) {
+    if !(0..input.count()).all(finite) {
         return Err(EditError::NonFinite);
     }
-    Ok(())
+    Ok(first..end)
 }
 
 /// The live prefix `..n` for an accessor or an infallible helper: empty should `n` exceed the
@@ -289,8 +303,20 @@ impl<'a> World<'a> {
     /// [`World::set_positions`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_positions_strided(&mut self, positions: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(positions, self.n)?;
-        for (i, x) in prefix_mut(self.a.x, self.n).iter_mut().enumerate() {
-            *x = Vec3A::from(positions.get(i).ok_or(EditError::VertexOutOfRange)?);
+        self.set_positions_range(0, positions)
+    }
+
+    /// Overwrites the positions of vertices `first..first + positions.count()` (the others
+    /// keep theirs); checks every value first, nothing changes on failure. Wakes the world.
+    pub fn set_positions_range(
+        &mut self,
+        first: usize,
+        positions: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(positions, first, self.n)?;
+        let x = self.a.x.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
+        for (k, x) in x.iter_mut().enumerate() {
+            *x = Vec3A::from(positions.get(k).ok_or(EditError::VertexOutOfRange)?);
         }
         self.wake();
         Ok(())
@@ -305,10 +331,124 @@ impl<'a> World<'a> {
     /// [`World::set_velocities`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_velocities_strided(&mut self, velocities: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(velocities, self.n)?;
-        for (i, v) in prefix_mut(self.a.v, self.n).iter_mut().enumerate() {
-            *v = Vec3A::from(velocities.get(i).ok_or(EditError::VertexOutOfRange)?);
+        self.set_velocities_range(0, velocities)
+    }
+
+    /// Overwrites the velocities of vertices `first..first + velocities.count()` (the others
+    /// keep theirs) and forgets the solver's warm start; checks every value first, nothing
+    /// changes on failure. Wakes the world.
+    pub fn set_velocities_range(
+        &mut self,
+        first: usize,
+        velocities: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(velocities, first, self.n)?;
+        let v = self.a.v.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
+        for (k, v) in v.iter_mut().enumerate() {
+            *v = Vec3A::from(velocities.get(k).ok_or(EditError::VertexOutOfRange)?);
         }
         prefix_mut(self.a.dv, self.n).fill(Vec3A::ZERO);
+        self.wake();
+        Ok(())
+    }
+
+    // ----- forces, impulses, masses -----
+
+    /// Adds forces (N) to vertices `first..first + forces.count()` for the next step: constant
+    /// over it, then cleared (apply them again each frame for a lasting force). The step's
+    /// energy balance counts their work as input. Checks every value first; nothing changes
+    /// on failure. Wakes the world when any is non-zero.
+    pub fn add_forces(&mut self, first: usize, forces: &Strided<'_, 3>) -> Result<(), EditError> {
+        let range = check_range_input(forces, first, self.n)?;
+        let applied = self
+            .a
+            .applied_force
+            .get_mut(range)
+            .ok_or(EditError::VertexOutOfRange)?;
+        let mut any = false;
+        for (k, f) in applied.iter_mut().enumerate() {
+            let add = Vec3A::from(forces.get(k).ok_or(EditError::VertexOutOfRange)?);
+            *f = (Vec3A::from(*f) + add).to_array();
+            any |= add != Vec3A::ZERO;
+        }
+        if any {
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// The forces applied for the next step so far (N), per vertex.
+    pub fn applied_forces(&self) -> &[[f32; 3]] {
+        prefix(self.a.applied_force, self.n)
+    }
+
+    /// Applies impulses (N·s) to vertices `first..first + impulses.count()`: each vertex's
+    /// velocity changes by `impulse / mass` at once, so the next step starts from it (a pinned
+    /// vertex stays held). Checks every value first; nothing changes on failure. Wakes the
+    /// world when any is non-zero.
+    pub fn add_impulses(
+        &mut self,
+        first: usize,
+        impulses: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(impulses, first, self.n)?;
+        let (Some(v), Some(mass)) = (
+            self.a.v.get_mut(range.clone()),
+            self.a.mass.get(range.clone()),
+        ) else {
+            return Err(EditError::VertexOutOfRange);
+        };
+        let mut any = false;
+        for (k, (v, &m)) in v.iter_mut().zip(mass).enumerate() {
+            let impulse = Vec3A::from(impulses.get(k).ok_or(EditError::VertexOutOfRange)?);
+            *v += impulse / m;
+            any |= impulse != Vec3A::ZERO;
+        }
+        if any {
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// Sets the mass scale of vertices `first..first + scales.count()`: each one's mass
+    /// becomes its lumped mass from the materials' density times the scale (heavier hems,
+    /// weighted attachment points). A scale must be finite and positive, and the mass it gives
+    /// a normal positive `f32` (`EditError::InvalidMassScale` names the first that is not).
+    /// The step uses these masses for inertia, gravity and damping. Checks every value first;
+    /// nothing changes on failure. Wakes the world.
+    pub fn set_mass_scales(
+        &mut self,
+        first: usize,
+        scales: &Strided<'_, 1>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(scales, first, self.n)?;
+        let (Some(mass), Some(rest)) = (
+            self.a.mass.get_mut(range.clone()),
+            self.a.rest_mass.get(range.clone()),
+        ) else {
+            return Err(EditError::VertexOutOfRange);
+        };
+        let scaled = |k: usize, &rest: &f32| {
+            let s = scales.get(k).map_or(f32::NAN, |[s]| s);
+            let m = rest * s;
+            (s > 0.0 && m.is_normal()).then_some(m)
+        };
+        if let Some(k) = rest
+            .iter()
+            .enumerate()
+            .position(|(k, r)| scaled(k, r).is_none())
+        {
+            return Err(EditError::InvalidMassScale {
+                vertex: (first + k) as u32,
+            });
+        }
+        for (k, (m, r)) in mass.iter_mut().zip(rest).enumerate() {
+            *m = scaled(k, r).unwrap_or(*m);
+        }
+        self.total_mass = prefix(self.a.mass, self.n)
+            .iter()
+            .map(|&m| f64::from(m))
+            .sum();
         self.wake();
         Ok(())
     }
@@ -527,6 +667,7 @@ impl<'a> World<'a> {
             c.previous = c.shape;
         }
         copy_live(self.a.pin_previous, self.a.pin_target, self.pins);
+        prefix_mut(self.a.applied_force, n).fill([0.0; 3]);
         if eff & effects::SLEEP != 0 {
             let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
             let v = prefix_mut(self.a.v, n);
@@ -557,7 +698,8 @@ impl<'a> World<'a> {
             let mut stats = self.run_substeps(dt, substeps)?;
             let (input, input_noise) = self.last_input;
             let end = monitor::level(&self.a, &counts, &self.settings)?;
-            let (gravity, gravity_noise) = monitor::gravity_work(&self.a, &counts, &self.settings)?;
+            let (gravity, gravity_noise) =
+                monitor::constant_force_work(&self.a, &counts, &self.settings)?;
             let gain = end.energy - start.energy - gravity - input;
             let floor = start.noise + end.noise + gravity_noise + input_noise;
             stats.redone = redone;

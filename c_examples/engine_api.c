@@ -1,0 +1,216 @@
+/*
+ * engine_api.c: the calls an engine reaches for beyond create and step, each checked against
+ * what it must do.
+ *
+ * - forces, impulses and per-vertex mass scales (a heavier hem);
+ *
+ *   cc -std=c11 -I include c_examples/engine_api.c target/ship/libweft.a -o engine_api
+ *   ./engine_api cells.weft
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "weft.h"
+
+#define N 8
+#define SIDE 0.4f
+#define VERTS (N * N)
+#define TRIS (2 * (N - 1) * (N - 1))
+#define DT (1.0f / 60.0f)
+
+static WeftVec3 positions[VERTS];
+static WeftVec2 uvs[VERTS];
+static uint32_t indices[3 * TRIS];
+static int failures = 0;
+
+/* Runs a call that must succeed; prints its result and detail otherwise. */
+#define MUST(call)                                                                         \
+    do {                                                                                   \
+        WeftResult must_r = (call);                                                        \
+        if (must_r != WEFT_RESULT_OK) {                                                    \
+            printf("FAILED %s: %s\n", #call, weft_result_string(must_r));                  \
+            ++failures;                                                                    \
+        }                                                                                  \
+    } while (0)
+
+/* A condition that must hold. */
+static void check(int ok, const char *what, double value)
+{
+    printf("%s: %s (%.6g)\n", what, ok ? "ok" : "WRONG", value);
+    failures += !ok;
+}
+
+/* Reads a whole file into malloc'd memory (malloc is aligned enough for WEFT_BLOB_ALIGN). */
+static void *read_file(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    void *bytes = NULL;
+    long n;
+    if (f == NULL)
+        return NULL;
+    if (fseek(f, 0, SEEK_END) == 0 && (n = ftell(f)) > 0 && fseek(f, 0, SEEK_SET) == 0) {
+        bytes = malloc((size_t)n);
+        if (bytes != NULL && fread(bytes, 1, (size_t)n, f) != (size_t)n) {
+            free(bytes);
+            bytes = NULL;
+        }
+        *size = (size_t)n;
+    }
+    fclose(f);
+    return bytes;
+}
+
+/* A flat N x N sheet in the x-z plane (a curtain), its (u, v) its layout. */
+static void make_sheet(void)
+{
+    int i, j, t = 0;
+    for (j = 0; j < N; ++j) {
+        for (i = 0; i < N; ++i) {
+            float u = SIDE * (float)i / (N - 1), v = SIDE * (float)j / (N - 1);
+            positions[j * N + i].x = u;
+            positions[j * N + i].y = 0.0f;
+            positions[j * N + i].z = v;
+            uvs[j * N + i].x = u;
+            uvs[j * N + i].y = v;
+        }
+    }
+    for (j = 0; j < N - 1; ++j) {
+        for (i = 0; i < N - 1; ++i) {
+            uint32_t ll = (uint32_t)(j * N + i), lr = ll + 1, ul = ll + N, ur = ul + 1;
+            uint32_t quad[6] = {ll, lr, ur, ll, ur, ul};
+            memcpy(&indices[t], quad, sizeof quad);
+            t += 6;
+        }
+    }
+}
+
+/* Σ m v (kg m/s). */
+static WeftVec3 momentum(const WeftWorld *world)
+{
+    static WeftVec3 v[VERTS];
+    static float m[VERTS];
+    WeftVec3 p = {0.0f, 0.0f, 0.0f};
+    int i;
+    MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_get_masses(world, 0, VERTS, m, sizeof(float)));
+    for (i = 0; i < VERTS; ++i) {
+        p.x += m[i] * v[i].x;
+        p.y += m[i] * v[i].y;
+        p.z += m[i] * v[i].z;
+    }
+    return p;
+}
+
+/* Forces for one step, impulses at once, and a heavier hem. */
+static void forces_impulses_masses(WeftWorld *world)
+{
+    static float rest[VERTS], scaled[VERTS];
+    /* interleaved {force, tag}: the forces are read at a stride of 16 bytes */
+    static struct {
+        WeftVec3 force;
+        float tag;
+    } push[VERTS];
+    float hem[N];
+    WeftVec3 p0, p1, kick = {0.0f, 0.002f, 0.0f};
+    int i;
+
+    p0 = momentum(world);
+    for (i = 0; i < VERTS; ++i) {
+        push[i].force.x = 0.001f * (float)(i % 5);
+        push[i].force.y = 0.0f;
+        push[i].force.z = 0.0f;
+        push[i].tag = -1.0f;
+    }
+    MUST(weft_world_add_forces(world, 0, VERTS, &push[0].force, sizeof push[0]));
+    MUST(weft_world_step(world, DT, NULL));
+    p1 = momentum(world);
+    /* Σ F dt = 64 / 5 * (0 + 1 + 2 + 3 + 4) mN ... exactly: */
+    {
+        float total = 0.0f;
+        for (i = 0; i < VERTS; ++i)
+            total += push[i].force.x;
+        check(fabsf(p1.x - p0.x - total * DT) < 1e-3f * total * DT,
+              "a force changes the momentum by F dt", (double)(p1.x - p0.x));
+    }
+    /* cleared after the step: the next one keeps the momentum */
+    MUST(weft_world_step(world, DT, NULL));
+    check(fabsf(momentum(world).x - p1.x) < 1e-3f * fabsf(p1.x), "forces last one step",
+          (double)momentum(world).x);
+
+    /* an impulse on vertex 10: Δp = J */
+    p0 = momentum(world);
+    MUST(weft_world_add_impulses(world, 10, 1, &kick, sizeof kick));
+    p1 = momentum(world);
+    check(fabsf(p1.y - p0.y - kick.y) < 1e-6f, "an impulse changes the momentum by J",
+          (double)(p1.y - p0.y));
+
+    /* a hem three times heavier: the bottom row */
+    MUST(weft_world_get_masses(world, 0, VERTS, rest, sizeof(float)));
+    for (i = 0; i < N; ++i)
+        hem[i] = 3.0f;
+    MUST(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float)));
+    MUST(weft_world_get_masses(world, 0, VERTS, scaled, sizeof(float)));
+    check(scaled[0] == 3.0f * rest[0] && scaled[N] == rest[N], "a heavier hem",
+          (double)(scaled[0] / rest[0]));
+    hem[2] = 0.0f;
+    check(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float)) ==
+              WEFT_RESULT_INVALID_ARGUMENT,
+          "a zero mass scale is refused", 0.0);
+    check(weft_world_add_forces(world, VERTS - 1, 2, push, sizeof push[0]) ==
+              WEFT_RESULT_VERTEX_OUT_OF_RANGE,
+          "forces past the last vertex are refused", 0.0);
+}
+
+int main(int argc, char **argv)
+{
+    WeftErrorDetail detail;
+    WeftBlob blob;
+    WeftWorldDef def;
+    WeftWorld *world = NULL;
+    void *bytes, *memory = NULL;
+    size_t blob_size = 0, memory_size = 0;
+
+    if (argc < 2) {
+        fprintf(stderr, "usage: %s CELLS.weft\n", argv[0]);
+        return 2;
+    }
+    bytes = read_file(argv[1], &blob_size);
+    if (bytes == NULL || weft_blob_parse(bytes, blob_size, &blob, &detail) != WEFT_RESULT_OK) {
+        fprintf(stderr, "cannot read the blob %s\n", argv[1]);
+        free(bytes);
+        return 1;
+    }
+    make_sheet();
+    def = weft_default_world_def();
+    def.positions = positions;
+    def.uvs = uvs;
+    def.vertex_count = VERTS;
+    def.indices = indices;
+    def.triangle_count = TRIS;
+    def.capacity.max_vertices = VERTS;
+    def.capacity.max_triangles = TRIS;
+    def.capacity.max_edges = 3 * TRIS;
+    /* a free cloth: no gravity, no damping */
+    def.settings.effects = WEFT_EFFECT_WARPING | WEFT_EFFECT_PINS;
+    def.settings.tolerance = 1e-6f;
+    def.settings.max_iterations = 1000;
+    MUST(weft_world_memory_size(&def.capacity, &memory_size));
+    memory = aligned_alloc(WEFT_WORLD_MEMORY_ALIGN, memory_size);
+    if (memory == NULL ||
+        weft_world_create(&def, &blob, memory, memory_size, &world, &detail) != WEFT_RESULT_OK) {
+        fprintf(stderr, "cannot create the world: %s\n", weft_result_string(detail.result));
+        free(memory);
+        free(bytes);
+        return 1;
+    }
+
+    forces_impulses_masses(world);
+
+    MUST(weft_world_destroy(world));
+    free(memory);
+    free(bytes);
+    printf(failures == 0 ? "engine_api: ok\n" : "engine_api: %d FAILED\n", failures);
+    return failures == 0 ? 0 : 1;
+}

@@ -1,0 +1,225 @@
+//! What an engine programmer reaches for (issue 14, "Engine API"): forces, impulses and mass
+//! scales; per-axis pins; vertex ranges and rigid teleports; collider ids; strain read-back.
+//! Each against a closed form or an invariant.
+
+mod common;
+
+use common::*;
+use glam::{DVec3, Vec3A};
+use weft::strided::Strided;
+use weft::world::{effects, EditError, Settings, World};
+
+/// Σ m v (kg·m/s), in f64.
+fn momentum(w: &World<'_>) -> DVec3 {
+    w.velocities()
+        .iter()
+        .zip(w.masses())
+        .map(|(v, &m)| v.as_dvec3() * m as f64)
+        .sum()
+}
+
+/// Only warped (Green-strain) elasticity: no gravity, damping, bending, pins or contact.
+fn free_settings() -> Settings {
+    Settings {
+        effects: effects::WARPING,
+        tolerance: 1e-6,
+        max_iterations: 500,
+        ..Settings::default()
+    }
+}
+
+/// A slightly deformed, anisotropic 7×7 sheet: its internal forces are not zero.
+fn deformed_sheet() -> common::Sheet {
+    let mut sheet = Sheet::grid(7, 7, 1.0, 1.0);
+    sheet.transform(|p| {
+        [
+            p[0] * 1.03,
+            p[1] * 0.98 + 0.02 * p[0],
+            0.05 * (p[0] * 3.0).sin(),
+        ]
+    });
+    sheet
+}
+
+/// A different force on every vertex, some of them zero.
+fn forces(n: usize) -> Vec<[f32; 3]> {
+    (0..n)
+        .map(|i| {
+            let t = i as f32;
+            [
+                0.01 * (t * 0.7).sin(),
+                -0.02 * (t * 1.3).cos(),
+                0.015 * (i % 3) as f32,
+            ]
+        })
+        .collect()
+}
+
+/// Applied forces act for one step: the momentum grows by exactly Σ F·dt per step (internal
+/// forces sum to zero), the forces are cleared after the step, and the energy balance counts
+/// their work as input (no step is redone or loses energy for it).
+#[test]
+fn applied_forces_change_momentum_by_their_impulse_and_are_cleared() {
+    let mat = [anisotropic()];
+    let sheet = deformed_sheet();
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let n = w.vertex_count();
+    let f = forces(n);
+    let total: DVec3 = f.iter().map(|f| Vec3A::from(*f).as_dvec3()).sum();
+    let dt = w.settings().time_step as f64;
+    let p0 = momentum(&w);
+    for step in 1..=20 {
+        w.add_forces(0, &Strided::from_slice(&f)).unwrap();
+        assert_eq!(w.applied_forces()[n - 1], f[n - 1]);
+        let s = w.step().unwrap();
+        assert!(w.applied_forces().iter().all(|&f| f == [0.0; 3]));
+        assert_eq!((s.redone, s.energy_removed), (0, 0.0), "step {step}: {s:?}");
+        let expected = p0 + total * dt * step as f64;
+        let drift = (momentum(&w) - expected).length();
+        assert!(
+            drift < 1e-4 * expected.length(),
+            "step {step}: drift {drift}"
+        );
+    }
+    // not applied again: the momentum stays
+    let p = momentum(&w);
+    w.step().unwrap();
+    assert!((momentum(&w) - p).length() < 1e-4 * p.length());
+}
+
+/// A uniform force on a free cloth moves it rigidly: implicit Euler's step from `v₀` is
+/// `v₁ = v₀ + h F/m`, `Δx = h v₁`, so the balance `ΔE_kin − F·Δx` is exactly its numerical
+/// dissipation `−Σ ½ m (h a)²` for `F = m a`. Without the force's work counted it would be `+ΔE_kin`, a gain
+/// that redoes every step.
+#[test]
+fn the_work_of_applied_forces_enters_the_energy_balance() {
+    let mat = [isotropic(500.0, 0.3, 0.2)];
+    let sheet = Sheet::grid(5, 5, 0.5, 0.5);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    // (proportional to mass, so that it accelerates every vertex alike)
+    let a = 0.5f32;
+    let push: Vec<[f32; 3]> = w.masses().iter().map(|&m| [0.0, 0.0, m * a]).collect();
+    let h = w.settings().time_step as f64;
+    let dissipation = 0.5 * w.total_mass() * (h * a as f64).powi(2);
+    for _ in 0..30 {
+        w.add_forces(0, &Strided::from_slice(&push)).unwrap();
+        let s = w.step().unwrap();
+        assert_eq!(s.redone, 0, "{s:?}");
+        let error = (s.energy_gain as f64 + dissipation).abs();
+        assert!(error < 1e-3 * dissipation, "{s:?}, expected −{dissipation}");
+    }
+}
+
+/// Forces on a range add to what was applied; a range past the end, or a NaN, changes nothing.
+#[test]
+fn forces_on_a_range_add_up_and_bad_input_changes_nothing() {
+    let mat = [anisotropic()];
+    let sheet = deformed_sheet();
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let n = w.vertex_count();
+    // every 2nd float of an interleaved buffer: [fx fy fz pad]
+    let interleaved: Vec<[f32; 4]> = (0..3).map(|k| [k as f32, 1.0, 2.0, 99.0]).collect();
+    let bytes: &[u8] = bytemuck::cast_slice(&interleaved);
+    let src = Strided::<3>::new(bytes, 16, 3).unwrap();
+    w.add_forces(10, &src).unwrap();
+    w.add_forces(10, &src).unwrap();
+    assert_eq!(w.applied_forces()[12], [4.0, 2.0, 4.0]);
+    assert_eq!(w.applied_forces()[9], [0.0; 3]);
+    let before: Vec<[f32; 3]> = w.applied_forces().to_vec();
+    assert_eq!(w.add_forces(n - 2, &src), Err(EditError::VertexOutOfRange));
+    let bad = [[0.0, f32::NAN, 0.0]];
+    assert_eq!(
+        w.add_forces(0, &Strided::from_slice(&bad)),
+        Err(EditError::NonFinite)
+    );
+    assert_eq!(w.applied_forces(), &before[..]);
+}
+
+/// An impulse changes a free vertex's velocity by J/m at once.
+#[test]
+fn impulses_change_velocity_by_impulse_over_mass() {
+    let mat = [anisotropic()];
+    let sheet = deformed_sheet();
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let j = [[0.0f32, 0.0, 0.002], [0.001, 0.0, 0.0]];
+    let p0 = momentum(&w);
+    w.add_impulses(5, &Strided::from_slice(&j)).unwrap();
+    let m = w.masses()[5];
+    assert!((w.velocities()[5].z - 0.002 / m).abs() < 1e-6 * (0.002 / m));
+    let dp = momentum(&w) - p0;
+    assert!((dp - DVec3::new(0.001, 0.0, 0.002)).length() < 1e-9);
+    // the next step conserves it (no forces, no gravity)
+    w.step().unwrap();
+    let drift = (momentum(&w) - p0 - dp).length();
+    assert!(drift < 1e-3 * dp.length(), "{drift}");
+}
+
+/// A mass scale multiplies the material's lumped mass (it does not compound), and the step's
+/// inertia uses it: forces proportional to the material masses accelerate a cloth whose
+/// masses are doubled at half the rate, uniformly (a rigid translation, closed form `v = a t`).
+#[test]
+fn mass_scales_set_the_masses_the_step_uses() {
+    let mat = [anisotropic()];
+    let sheet = Sheet::grid(6, 6, 0.5, 0.5);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let n = w.vertex_count();
+    let rest: Vec<f32> = w.masses().to_vec();
+    let total = w.total_mass();
+    let twice = vec![[2.0f32]; n];
+    w.set_mass_scales(0, &Strided::from_slice(&twice)).unwrap();
+    w.set_mass_scales(0, &Strided::from_slice(&twice)).unwrap();
+    for (m, r) in w.masses().iter().zip(&rest) {
+        assert_eq!(*m, 2.0 * r);
+    }
+    assert!((w.total_mass() - 2.0 * total).abs() < 1e-6 * total);
+    let a = 0.3f32;
+    let f: Vec<[f32; 3]> = rest.iter().map(|&m| [m * a, 0.0, 0.0]).collect();
+    let steps = 12;
+    for _ in 0..steps {
+        w.add_forces(0, &Strided::from_slice(&f)).unwrap();
+        w.step().unwrap();
+    }
+    let t = steps as f32 * w.settings().time_step;
+    for v in w.velocities() {
+        assert!((v.x - 0.5 * a * t).abs() < 1e-3 * a * t, "{v}");
+    }
+    // a heavier hem: the bottom row at 3×, then back to 1×
+    w.set_mass_scales(0, &Strided::from_slice(&[[3.0f32]; 6]))
+        .unwrap();
+    assert_eq!(w.masses()[0], 3.0 * rest[0]);
+    assert_eq!(w.masses()[6], 2.0 * rest[6]);
+    w.set_mass_scales(0, &Strided::from_slice(&vec![[1.0f32]; n]))
+        .unwrap();
+    assert_eq!(w.masses(), &rest[..]);
+}
+
+#[test]
+fn invalid_mass_scales_are_refused_by_vertex_and_change_nothing() {
+    let mat = [anisotropic()];
+    let sheet = Sheet::grid(4, 4, 0.5, 0.5);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let before = w.masses().to_vec();
+    for (bad, err) in [
+        (0.0, EditError::InvalidMassScale { vertex: 3 }),
+        (-1.0, EditError::InvalidMassScale { vertex: 3 }),
+        (1e-40, EditError::InvalidMassScale { vertex: 3 }),
+        (f32::NAN, EditError::NonFinite),
+    ] {
+        let scales = [[1.5f32], [1.5], [bad]];
+        assert_eq!(
+            w.set_mass_scales(1, &Strided::from_slice(&scales)),
+            Err(err)
+        );
+        assert_eq!(w.masses(), &before[..]);
+    }
+    assert_eq!(
+        w.set_mass_scales(15, &Strided::from_slice(&[[1.0f32], [1.0]])),
+        Err(EditError::VertexOutOfRange)
+    );
+}
