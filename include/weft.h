@@ -191,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3992096
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3995184
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
@@ -1376,7 +1376,7 @@ WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
                                       size_t stride);
 
 /**
- * Pins vertex `vertex` to `target` (metres), or moves its pin there. The vertex travels to the
+ * Pins vertex `vertex` to `target` (metres) in every direction, or moves its pin there. The vertex travels to the
  * target over the next step (linearly across substeps), so animate a pin by setting its
  * target every frame. A new pin starts where the vertex is. Wakes the world when the target
  * changed. Pins hold only while `WEFT_EFFECT_PINS` is on.
@@ -1384,7 +1384,37 @@ WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
  */
-WeftResult weft_world_set_pin(struct WeftWorld *world, uint32_t vertex, struct WeftVec3 target);
+WeftResult weft_world_set_pin(struct WeftWorld *world,
+                              uint32_t vertex,
+                              struct WeftVec3 target);
+
+/**
+ * Pins vertex `vertex` in one direction only: it stays in the plane through `target`
+ * (metres) normal to `normal` (any length but zero; normalized) and moves freely, without
+ * friction, within it. Otherwise as `weft_world_set_pin` (it replaces any pin the vertex had;
+ * moving the target moves the plane). A pinned vertex ignores colliders. A zero normal is
+ * `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` "axis").
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_set_pin_plane(struct WeftWorld *world,
+                                    uint32_t vertex,
+                                    struct WeftVec3 target,
+                                    struct WeftVec3 normal);
+
+/**
+ * Pins vertex `vertex` in the two directions normal to `direction`: it stays on the line
+ * through `target` (metres) along `direction` (any length but zero; normalized) and slides
+ * freely along it, like a curtain ring on a rail. Otherwise as `weft_world_set_pin_plane`.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_set_pin_line(struct WeftWorld *world,
+                                   uint32_t vertex,
+                                   struct WeftVec3 target,
+                                   struct WeftVec3 direction);
 
 /**
  * Releases the pin of vertex `vertex` (no error when it had none). Wakes the world.

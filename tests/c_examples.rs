@@ -221,6 +221,8 @@ fn engine_api_c() {
             "forces last one step: ok",
             "an impulse changes the momentum by J: ok",
             "a heavier hem: ok",
+            "the curtain slides along its rail at g sin(theta): ok",
+            "a rail without a direction is refused: ok",
             "engine_api: ok",
         ],
     );

@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use glam::{DVec3, Vec3A};
 use weft::strided::Strided;
-use weft::world::{effects, EditError, Settings, World};
+use weft::world::{effects, EditError, PinAxes, Settings, World};
 
 /// Σ m v (kg·m/s), in f64.
 fn momentum(w: &World<'_>) -> DVec3 {
@@ -222,4 +222,148 @@ fn invalid_mass_scales_are_refused_by_vertex_and_change_nothing() {
         w.set_mass_scales(15, &Strided::from_slice(&[[1.0f32], [1.0]])),
         Err(EditError::VertexOutOfRange)
     );
+}
+
+/// Gravity, no damping: a cloth free to fall but held by per-axis pins.
+fn rail_settings() -> Settings {
+    Settings {
+        effects: effects::WARPING | effects::GRAVITY | effects::PINS | effects::BENDING,
+        tolerance: 1e-6,
+        max_iterations: 1000,
+        ..Settings::default()
+    }
+}
+
+/// A rail inclined by θ in the x–z plane.
+fn rail(theta: f32) -> Vec3A {
+    Vec3A::new(theta.cos(), 0.0, -theta.sin())
+}
+
+/// Every vertex on a frictionless line along the same inclined rail: the cloth slides as one
+/// body, and each vertex accelerates at g·sinθ along the rail. Implicit Euler is exact for the
+/// velocity under a constant force, so `v = g sinθ t` to round-off, and nothing moves across
+/// the rail.
+#[test]
+fn a_cloth_on_an_inclined_rail_accelerates_at_g_sin_theta() {
+    let mat = [anisotropic()];
+    let sheet = hanging_sheet(5, 0.3);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, rail_settings());
+    let theta = 0.4f32;
+    let d = rail(theta);
+    for (i, p) in sheet.positions.iter().enumerate() {
+        w.set_pin_axes(
+            i as u32,
+            *p,
+            PinAxes::Line {
+                direction: d.to_array(),
+            },
+        )
+        .unwrap();
+    }
+    let steps = 30;
+    for _ in 0..steps {
+        let s = w.step().unwrap();
+        assert_eq!((s.redone, s.energy_removed), (0, 0.0), "{s:?}");
+    }
+    let t = steps as f32 * w.settings().time_step;
+    let expected = 9.81 * theta.sin() * t;
+    for (v, (x, x0)) in w
+        .velocities()
+        .iter()
+        .zip(w.positions().iter().zip(&sheet.positions))
+    {
+        assert!(
+            (v.dot(d) - expected).abs() < 1e-4 * expected,
+            "{v} vs {expected}"
+        );
+        assert!((*v - d * v.dot(d)).length() < 1e-5 * expected, "{v}");
+        let moved = *x - Vec3A::from(*x0);
+        assert!((moved - d * moved.dot(d)).length() < 1e-5, "{moved}");
+    }
+}
+
+/// A curtain whose top row hangs from rings on an inclined rail: the rail only pushes across
+/// itself and every other force is internal, so the momentum along the rail grows at exactly
+/// `M g sinθ`, however the curtain swings: the rings slide freely.
+#[test]
+fn a_curtain_on_rings_slides_freely_along_its_rail() {
+    let mat = [anisotropic()];
+    let sheet = hanging_sheet(7, 0.4);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, rail_settings());
+    let theta = 0.3f32;
+    let d = rail(theta);
+    for i in 0..sheet.nx {
+        let v = sheet.index(i, sheet.ny - 1);
+        let line = PinAxes::Line {
+            direction: d.to_array(),
+        };
+        w.set_pin_axes(v, sheet.positions[v as usize], line)
+            .unwrap();
+    }
+    let mass = w.total_mass();
+    let h = w.settings().time_step as f64;
+    for step in 1..=60 {
+        let s = w.step().unwrap();
+        assert_eq!(s.energy_removed, 0.0, "{s:?}");
+        let along = momentum(&w).dot(d.as_dvec3());
+        let expected = mass * 9.81 * (theta as f64).sin() * h * step as f64;
+        assert!(
+            (along - expected).abs() < 1e-3 * expected,
+            "step {step}: {along} vs {expected}"
+        );
+    }
+    // the rings stayed on the rail
+    for i in 0..sheet.nx {
+        let v = sheet.index(i, sheet.ny - 1) as usize;
+        let moved = w.positions()[v] - Vec3A::from(sheet.positions[v]);
+        assert!((moved - d * moved.dot(d)).length() < 1e-5, "{moved}");
+    }
+}
+
+/// A pin in a plane holds the normal direction only: the vertex stays in the plane through its
+/// target and moves in it; a moving plane target does work that the energy balance counts.
+#[test]
+fn a_pin_in_a_plane_holds_only_its_normal() {
+    let mat = [anisotropic()];
+    let sheet = hanging_sheet(5, 0.3);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, rail_settings());
+    let n = Vec3A::new(0.0, 1.0, 1.0).normalize();
+    let top = sheet.index(2, sheet.ny - 1);
+    let target = Vec3A::from(sheet.positions[top as usize]);
+    w.set_pin_axes(
+        top,
+        target.to_array(),
+        PinAxes::Plane {
+            normal: n.to_array(),
+        },
+    )
+    .unwrap();
+    for k in 0..60 {
+        // the plane moves along its normal; the vertex follows it
+        let offset = n * (0.002 * k as f32);
+        w.set_pin_axes(
+            top,
+            (target + offset).to_array(),
+            PinAxes::Plane {
+                normal: n.to_array(),
+            },
+        )
+        .unwrap();
+        let s = w.step().unwrap();
+        assert_eq!(s.energy_removed, 0.0, "{s:?}");
+        let x = w.positions()[top as usize];
+        assert!((x - target - offset).dot(n).abs() < 1e-5, "{x}");
+    }
+    // it fell within the plane
+    let x = w.positions()[top as usize];
+    assert!((x - target).z < -0.01, "{x}");
+    for bad in [[0.0; 3], [f32::NAN, 0.0, 1.0]] {
+        assert_eq!(
+            w.set_pin_axes(top, target.to_array(), PinAxes::Line { direction: bad }),
+            Err(EditError::InvalidAxis)
+        );
+    }
 }

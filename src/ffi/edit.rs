@@ -10,7 +10,7 @@ use super::types::*;
 use super::*;
 use crate::collide::Collider;
 use crate::strided::Strided;
-use crate::world::{EditError, World};
+use crate::world::{EditError, PinAxes, World};
 
 /// # Safety
 /// `out` writable for the strided extent; `world` as [`world_at`].
@@ -340,7 +340,7 @@ pub unsafe extern "C" fn weft_world_set_mass_scales(
     }
 }
 
-/// Pins vertex `vertex` to `target` (metres), or moves its pin there. The vertex travels to the
+/// Pins vertex `vertex` to `target` (metres) in every direction, or moves its pin there. The vertex travels to the
 /// target over the next step (linearly across substeps), so animate a pin by setting its
 /// target every frame. A new pin starts where the vertex is. Wakes the world when the target
 /// changed. Pins hold only while `WEFT_EFFECT_PINS` is on.
@@ -364,6 +364,73 @@ pub unsafe extern "C" fn weft_world_set_pin(
                 .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
         })
     }
+}
+
+/// # Safety
+/// `world` as [`world_mut`].
+unsafe fn set_pin_axes(
+    world: *mut WeftWorld,
+    vertex: u32,
+    target: WeftVec3,
+    axes: PinAxes,
+    axis: WeftVec3,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            if !vec3(target).iter().all(|c| c.is_finite()) {
+                return Err(fault(WeftResult::NonFinite).what(c"target").vertex(vertex));
+            }
+            if !vec3(axis).iter().all(|c| c.is_finite()) {
+                return Err(fault(WeftResult::NonFinite).what(c"axis").vertex(vertex));
+            }
+            w.world
+                .set_pin_axes(vertex, vec3(target), axes)
+                .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
+        })
+    }
+}
+
+/// Pins vertex `vertex` in one direction only: it stays in the plane through `target`
+/// (metres) normal to `normal` (any length but zero; normalized) and moves freely, without
+/// friction, within it. Otherwise as `weft_world_set_pin` (it replaces any pin the vertex had;
+/// moving the target moves the plane). A pinned vertex ignores colliders. A zero normal is
+/// `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` "axis").
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_pin_plane(
+    world: *mut WeftWorld,
+    vertex: u32,
+    target: WeftVec3,
+    normal: WeftVec3,
+) -> WeftResult {
+    let axes = PinAxes::Plane {
+        normal: vec3(normal),
+    };
+    // SAFETY: forwarded contract.
+    unsafe { set_pin_axes(world, vertex, target, axes, normal) }
+}
+
+/// Pins vertex `vertex` in the two directions normal to `direction`: it stays on the line
+/// through `target` (metres) along `direction` (any length but zero; normalized) and slides
+/// freely along it, like a curtain ring on a rail. Otherwise as `weft_world_set_pin_plane`.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_pin_line(
+    world: *mut WeftWorld,
+    vertex: u32,
+    target: WeftVec3,
+    direction: WeftVec3,
+) -> WeftResult {
+    let axes = PinAxes::Line {
+        direction: vec3(direction),
+    };
+    // SAFETY: forwarded contract.
+    unsafe { set_pin_axes(world, vertex, target, axes, direction) }
 }
 
 /// Releases the pin of vertex `vertex` (no error when it had none). Wakes the world.

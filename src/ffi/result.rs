@@ -443,6 +443,7 @@ pub(super) fn edit_fault(e: EditError, w: &World<'_>) -> Fault {
         EditError::ColliderOutOfRange => fault(R::ColliderOutOfRange),
         EditError::InvalidCollider => fault(R::InvalidCollider),
         EditError::InvalidMassScale { vertex } => invalid(c"scales").vertex(vertex),
+        EditError::InvalidAxis => invalid(c"axis"),
     }
 }
 

@@ -120,6 +120,8 @@ pub enum EditError {
     ColliderCapacity,
     ColliderOutOfRange,
     InvalidCollider,
+    /// A pin's plane normal or line direction is zero or not finite.
+    InvalidAxis,
     /// A mass scale that is not finite and positive, or gives a mass beyond `f32`.
     InvalidMassScale {
         vertex: u32,
@@ -196,6 +198,7 @@ impl fmt::Display for EditError {
             EditError::ColliderOutOfRange => "no collider with that index",
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
             EditError::InvalidMassScale { .. } => "invalid mass scale",
+            EditError::InvalidAxis => "a pin's normal or direction is zero or not finite",
         })
     }
 }

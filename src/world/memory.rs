@@ -192,6 +192,9 @@ arrays! { cap;
     pin_vertex: u32 = [cap.p(); 0],
     pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
     pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
+    /// The directions each pin leaves free, as the PCG filter `S` of its vertex: 0 for a
+    /// point, `I − n nᵀ` for a plane, `d dᵀ` for a line (see `PinAxes`).
+    pin_free: Mat3A = [cap.p(); Mat3A::ZERO],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
 }
 

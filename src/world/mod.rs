@@ -26,7 +26,7 @@ use core::ops::Not;
 #[cfg(feature = "research")]
 use glam::Quat;
 
-use glam::Vec3A;
+use glam::{Mat3A, Vec3A};
 
 use crate::blob::Blob;
 use crate::collide::{Collider, Shape};
@@ -170,6 +170,42 @@ fn prefix_mut<T>(array: &mut [T], n: usize) -> &mut [T] {
 fn copy_live<T: Copy>(to: &mut [T], from: &[T], n: usize) {
     if let (Some(to), Some(from)) = (to.get_mut(..n), from.get(..n)) {
         to.copy_from_slice(from);
+    }
+}
+
+/// The directions a pin holds ([`World::set_pin_axes`]); the others are free.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PinAxes {
+    /// Every direction: the vertex is on the target.
+    Point,
+    /// The direction `normal` only: the vertex slides freely in the plane through the target
+    /// normal to it.
+    Plane { normal: [f32; 3] },
+    /// The two directions normal to `direction`: the vertex slides freely along the line
+    /// through the target (a curtain ring on a rail).
+    Line { direction: [f32; 3] },
+}
+
+impl PinAxes {
+    /// The free directions as a projection `S` (the PCG filter of the pinned vertex), or
+    /// `None` for an axis that is not finite and non-zero.
+    fn free_directions(&self) -> Option<Mat3A> {
+        let unit = |a: [f32; 3]| {
+            let a = Vec3A::from(a);
+            let unit = a.normalize_or_zero();
+            (a.is_finite() && unit != Vec3A::ZERO).then_some(unit)
+        };
+        Some(match *self {
+            PinAxes::Point => Mat3A::ZERO,
+            PinAxes::Plane { normal } => {
+                let n = unit(normal)?;
+                Mat3A::IDENTITY - step::system::outer(n, n)
+            }
+            PinAxes::Line { direction } => {
+                let d = unit(direction)?;
+                step::system::outer(d, d)
+            }
+        })
     }
 }
 
@@ -455,25 +491,43 @@ impl<'a> World<'a> {
 
     // ----- pins -----
 
-    /// Pins `vertex` to `target` (m). A pin that already exists gets the new target; the vertex
-    /// moves there over the next step (linearly across substeps). Wakes the world when the
-    /// target changed. Targets are checked at step time too, so a NaN target set through a
-    /// raw pointer in C is still caught.
+    /// Pins `vertex` to `target` (m) in every direction. A pin that already exists gets the
+    /// new target; the vertex moves there over the next step (linearly across substeps). Wakes
+    /// the world when the target changed. Targets are checked at step time too, so a NaN
+    /// target set through a raw pointer in C is still caught.
     pub fn set_pin(&mut self, vertex: u32, target: [f32; 3]) -> Result<(), EditError> {
+        self.set_pin_axes(vertex, target, PinAxes::Point)
+    }
+
+    /// Pins `vertex` to `target` (m) in the directions `axes` holds and leaves it free in the
+    /// others (a ring on a rail: [`PinAxes::Line`]); otherwise as [`World::set_pin`]. The held
+    /// directions are the solver's constraint filter, so the free ones feel no friction.
+    pub fn set_pin_axes(
+        &mut self,
+        vertex: u32,
+        target: [f32; 3],
+        axes: PinAxes,
+    ) -> Result<(), EditError> {
         let vi = vertex as usize;
         if vi >= self.n {
             return Err(EditError::VertexOutOfRange);
         }
+        let free = axes.free_directions().ok_or(EditError::InvalidAxis)?;
         let target = Vec3A::from(target);
         // (`pin_of` and `x` are capacity-long, and a pin index is below the pin count: the
         // `VertexOutOfRange` and `PinCapacity` below cannot happen)
         let p = *self.a.pin_of.get(vi).ok_or(EditError::VertexOutOfRange)?;
         if p != mesh::NONE {
-            let slot = prefix_mut(self.a.pin_target, self.pins)
-                .get_mut(p as usize)
-                .ok_or(EditError::PinCapacity)?;
-            if *slot != target {
+            let a = &mut self.a;
+            let (Some(slot), Some(slot_free)) = (
+                prefix_mut(a.pin_target, self.pins).get_mut(p as usize),
+                prefix_mut(a.pin_free, self.pins).get_mut(p as usize),
+            ) else {
+                return Err(EditError::PinCapacity);
+            };
+            if (*slot, *slot_free) != (target, free) {
                 *slot = target;
+                *slot_free = free;
                 self.wake();
             }
             return Ok(());
@@ -483,10 +537,11 @@ impl<'a> World<'a> {
         }
         let p = self.pins;
         let a = &mut self.a;
-        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous), Some(pin_free)) = (
             a.pin_vertex.get_mut(p),
             a.pin_target.get_mut(p),
             a.pin_previous.get_mut(p),
+            a.pin_free.get_mut(p),
         ) else {
             return Err(EditError::PinCapacity);
         };
@@ -495,6 +550,7 @@ impl<'a> World<'a> {
         };
         *pin_vertex = vertex;
         *pin_target = target;
+        *pin_free = free;
         // A new pin starts where the vertex is, so it is not yanked in one substep.
         *pin_previous = x;
         *pin_of = p as u32;
@@ -518,17 +574,19 @@ impl<'a> World<'a> {
         let last = self.pins - 1;
         let p = p as usize;
         let a = &mut self.a;
-        let (Some(&last_vertex), Some(&last_target), Some(&last_previous)) = (
+        let (Some(&last_vertex), Some(&last_target), Some(&last_previous), Some(&last_free)) = (
             a.pin_vertex.get(last),
             a.pin_target.get(last),
             a.pin_previous.get(last),
+            a.pin_free.get(last),
         ) else {
             return Err(EditError::PinCapacity);
         };
-        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous), Some(pin_free)) = (
             a.pin_vertex.get_mut(p),
             a.pin_target.get_mut(p),
             a.pin_previous.get_mut(p),
+            a.pin_free.get_mut(p),
         ) else {
             return Err(EditError::PinCapacity);
         };
@@ -538,6 +596,7 @@ impl<'a> World<'a> {
         *pin_vertex = last_vertex;
         *pin_target = last_target;
         *pin_previous = last_previous;
+        *pin_free = last_free;
         // (in this order: when `p` is the last pin, `last_vertex` is `vertex`)
         if let Some(moved) = a.pin_of.get_mut(last_vertex as usize) {
             *moved = p as u32;
