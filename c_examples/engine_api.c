@@ -4,6 +4,7 @@
  *
  * - forces, impulses and per-vertex mass scales (a heavier hem);
  * - a curtain on rings that slide along an inclined rail (pins that hold some directions);
+ * - a range of vertices in and out, and a rigid teleport that keeps the shape and motion;
  *
  *   cc -std=c11 -I include c_examples/engine_api.c target/ship/libweft.a -o engine_api
  *   ./engine_api cells.weft
@@ -201,6 +202,69 @@ static void curtain_on_a_rail(WeftWorld *world)
           "a rail without a direction is refused", 0.0);
 }
 
+/* The longest relative change of an edge length between two sets of positions. */
+static float shape_change(const WeftVec3 *a, const WeftVec3 *b)
+{
+    float worst = 0.0f;
+    int t, k;
+    for (t = 0; t < TRIS; ++t) {
+        for (k = 0; k < 3; ++k) {
+            uint32_t i = indices[3 * t + k], j = indices[3 * t + (k + 1) % 3];
+            float la = sqrtf((a[i].x - a[j].x) * (a[i].x - a[j].x) +
+                             (a[i].y - a[j].y) * (a[i].y - a[j].y) +
+                             (a[i].z - a[j].z) * (a[i].z - a[j].z));
+            float lb = sqrtf((b[i].x - b[j].x) * (b[i].x - b[j].x) +
+                             (b[i].y - b[j].y) * (b[i].y - b[j].y) +
+                             (b[i].z - b[j].z) * (b[i].z - b[j].z));
+            if (fabsf(lb - la) > worst * la)
+                worst = fabsf(lb - la) / la;
+        }
+    }
+    return worst;
+}
+
+/* A range of vertices in and out, then the whole cloth turned by 90 degrees about z and moved
+ * 10 m away with its motion. */
+static void ranges_and_teleport(WeftWorld *world)
+{
+    static WeftVec3 before[VERTS], after[VERTS], v0[VERTS], v1[VERTS];
+    WeftVec3 row[N], back[N];
+    WeftQuat quarter = {0.0f, 0.0f, 0.70710678f, 0.70710678f};
+    WeftVec3 away = {10.0f, 0.0f, 0.0f};
+    float speed0 = 0.0f, speed1 = 0.0f;
+    int i;
+
+    /* the second row, lifted by 1 cm, and read back */
+    MUST(weft_world_get_positions_range(world, N, N, row, sizeof(WeftVec3)));
+    for (i = 0; i < N; ++i)
+        row[i].y += 0.01f;
+    MUST(weft_world_set_positions_range(world, N, N, row, sizeof(WeftVec3)));
+    MUST(weft_world_get_positions_range(world, N, N, back, sizeof(WeftVec3)));
+    check(memcmp(row, back, sizeof row) == 0, "a range of positions round-trips", 0.0);
+    check(weft_world_get_positions_range(world, VERTS - 1, 2, back, sizeof(WeftVec3)) ==
+              WEFT_RESULT_VERTEX_OUT_OF_RANGE,
+          "a range past the last vertex is refused", 0.0);
+
+    MUST(weft_world_get_positions(world, before, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_get_velocities(world, v0, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_transform(world, quarter, away, 1));
+    MUST(weft_world_get_positions(world, after, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_get_velocities(world, v1, VERTS, sizeof(WeftVec3)));
+    for (i = 0; i < VERTS; ++i) {
+        speed0 += sqrtf(v0[i].x * v0[i].x + v0[i].y * v0[i].y + v0[i].z * v0[i].z);
+        speed1 += sqrtf(v1[i].x * v1[i].x + v1[i].y * v1[i].y + v1[i].z * v1[i].z);
+    }
+    check(shape_change(before, after) < 1e-5f, "a teleport keeps the shape",
+          (double)shape_change(before, after));
+    check(fabsf(after[0].x - (10.0f - before[0].y)) < 1e-5f && fabsf(after[0].y - before[0].x) < 1e-5f,
+          "a teleport turns and moves", (double)after[0].x);
+    check(fabsf(speed1 - speed0) < 1e-5f * speed0 && fabsf(v1[5].y - v0[5].x) < 1e-6f,
+          "a teleport turns the velocities", (double)speed1);
+    MUST(weft_world_step(world, DT, NULL));
+    check(weft_world_transform(world, quarter, away, 2) == WEFT_RESULT_INVALID_ARGUMENT,
+          "keep_velocity is 0 or 1", 0.0);
+}
+
 int main(int argc, char **argv)
 {
     WeftErrorDetail detail;
@@ -246,6 +310,7 @@ int main(int argc, char **argv)
 
     forces_impulses_masses(world);
     curtain_on_a_rail(world);
+    ranges_and_teleport(world);
 
     MUST(weft_world_destroy(world));
     free(memory);

@@ -957,6 +957,29 @@ typedef struct WeftStepStats {
 } WeftStepStats;
 
 /**
+ * A rotation as a unit quaternion `w + x i + y j + z k` (a non-unit one is normalized).
+ * 16 bytes, no padding.
+ */
+typedef struct WeftQuat {
+    /**
+     * i component.
+     */
+    float x;
+    /**
+     * j component.
+     */
+    float y;
+    /**
+     * k component.
+     */
+    float z;
+    /**
+     * Real component (1 for no rotation).
+     */
+    float w;
+} WeftQuat;
+
+/**
  * Where `weft_localize` writes a range of the fine render mesh. Get one from
  * `weft_default_localize_output()` and edit it (a struct that did not come from there is
  * `WEFT_RESULT_UNINITIALIZED`). Only read during the call.
@@ -1321,6 +1344,81 @@ WeftResult weft_world_set_velocities(struct WeftWorld *world,
                                      const void *src,
                                      uint32_t count,
                                      size_t stride);
+
+/**
+ * Copies the positions (metres) of vertices `first .. first + count - 1` out: vertex
+ * `first + k`'s 3 floats to byte `k * stride` of `out` (written unaligned, `stride` ≥ 12).
+ * A range past the last vertex is `WEFT_RESULT_VERTEX_OUT_OF_RANGE` (`detail.needed` is the
+ * vertex count) and writes nothing.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ */
+WeftResult weft_world_get_positions_range(const struct WeftWorld *world,
+                                          uint32_t first,
+                                          uint32_t count,
+                                          void *out,
+                                          size_t stride);
+
+/**
+ * Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
+ * `weft_world_get_positions_range`.
+ *
+ * # Safety
+ * As `weft_world_get_positions_range`.
+ */
+WeftResult weft_world_get_velocities_range(const struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           void *out,
+                                           size_t stride);
+
+/**
+ * Overwrites the positions (metres) of vertices `first .. first + count - 1` from `src`
+ * (vertex `first + k` at byte `k * stride`, read unaligned, `stride` ≥ 12); the others keep
+ * theirs. Checks the range and every value first (`WEFT_RESULT_NON_FINITE` names the
+ * vertex); nothing changes on failure. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 12` bytes.
+ */
+WeftResult weft_world_set_positions_range(struct WeftWorld *world,
+                                          uint32_t first,
+                                          uint32_t count,
+                                          const void *src,
+                                          size_t stride);
+
+/**
+ * Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
+ * `weft_world_set_positions_range`, and forgets the solver's warm start.
+ *
+ * # Safety
+ * As `weft_world_set_positions_range`.
+ */
+WeftResult weft_world_set_velocities_range(struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           const void *src,
+                                           size_t stride);
+
+/**
+ * Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres),
+ * `R` the rotation of `rotation` (normalized; it must be finite and not zero), so the
+ * cloth's shape and elastic energy are kept (a teleport with a character). `keep_velocity`
+ * 1: the velocities turn with it (`v ← R v`) and the motion goes on in the new frame; 0: the
+ * cloth is left at rest; anything else is `WEFT_RESULT_INVALID_ARGUMENT`. Pin targets move
+ * with the cloth (set them again if they should not); contacts are forgotten, colliders stay
+ * where they are. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_transform(struct WeftWorld *world,
+                                struct WeftQuat rotation,
+                                struct WeftVec3 translation,
+                                uint32_t keep_velocity);
 
 /**
  * Adds forces (newtons) to vertices `first .. first + count - 1` for the next

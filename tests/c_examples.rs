@@ -223,6 +223,9 @@ fn engine_api_c() {
             "a heavier hem: ok",
             "the curtain slides along its rail at g sin(theta): ok",
             "a rail without a direction is refused: ok",
+            "a range of positions round-trips: ok",
+            "a teleport keeps the shape: ok",
+            "a teleport turns the velocities: ok",
             "engine_api: ok",
         ],
     );
@@ -476,6 +479,7 @@ fn c_layout_matches_rust() {
     }
     layout!(WeftVec3 { x, y, z });
     layout!(WeftVec2 { x, y });
+    layout!(WeftQuat { x, y, z, w });
     layout!(WeftCapacity {
         max_vertices,
         max_triangles,

@@ -367,3 +367,131 @@ fn a_pin_in_a_plane_holds_only_its_normal() {
         );
     }
 }
+
+/// Edge lengths of the current positions.
+fn edge_lengths(w: &World<'_>) -> Vec<f32> {
+    let x = w.positions();
+    w.triangles()
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .map(|(a, b)| (x[a as usize] - x[b as usize]).length())
+        .collect()
+}
+
+/// A sub-range of positions and velocities in and out of an interleaved buffer: only that
+/// range changes, and a range past the end changes nothing.
+#[test]
+fn ranges_of_positions_and_velocities_round_trip() {
+    let mat = [anisotropic()];
+    let sheet = deformed_sheet();
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, free_settings());
+    let n = w.vertex_count();
+    let before: Vec<Vec3A> = w.positions().to_vec();
+    // [x y z vx vy vz] records
+    let records: Vec<[f32; 6]> = (0..4)
+        .map(|k| [k as f32, 1.0, 2.0, -1.0, 0.5, k as f32])
+        .collect();
+    let bytes: &[u8] = bytemuck::cast_slice(&records);
+    let positions = Strided::<3>::new(bytes, 24, 4).unwrap();
+    let velocities = Strided::<3>::with_offset(bytes, 24, 12, 4).unwrap();
+    w.set_positions_range(20, &positions).unwrap();
+    w.set_velocities_range(20, &velocities).unwrap();
+    assert_eq!(w.positions()[22], Vec3A::new(2.0, 1.0, 2.0));
+    assert_eq!(w.velocities()[23], Vec3A::new(-1.0, 0.5, 3.0));
+    assert_eq!(w.positions()[19], before[19]);
+    assert_eq!(w.positions()[24], before[24]);
+    assert_eq!(w.velocities()[24], Vec3A::ZERO);
+    let now: Vec<Vec3A> = w.positions().to_vec();
+    assert_eq!(
+        w.set_positions_range(n - 3, &positions),
+        Err(EditError::VertexOutOfRange)
+    );
+    assert_eq!(
+        w.set_positions_range(usize::MAX, &positions),
+        Err(EditError::VertexOutOfRange)
+    );
+    assert_eq!(w.positions(), &now[..]);
+}
+
+/// A rigid teleport keeps the shape (edge lengths), the elastic energy and, with the velocity
+/// kept, the kinetic energy; and stepping commutes with it: on a free cloth (no gravity) the
+/// teleported cloth's next steps are the original's, teleported.
+#[test]
+fn a_rigid_teleport_keeps_shape_energy_and_motion() {
+    let mat = [anisotropic()];
+    let sheet = deformed_sheet();
+    let (mut mem_a, mut mem_b) = (memory(&sheet.capacity()), memory(&sheet.capacity()));
+    let mut a = world(&mut mem_a, &sheet, &mat, free_settings());
+    let mut b = world(&mut mem_b, &sheet, &mat, free_settings());
+    let spin: Vec<[f32; 3]> = sheet
+        .positions
+        .iter()
+        .map(|p| [0.2 - 0.5 * (p[1] - 0.5), 0.1 + 0.5 * (p[0] - 0.5), 0.3])
+        .collect();
+    a.set_velocities(&spin).unwrap();
+    b.set_velocities(&spin).unwrap();
+    let q = glam::Quat::from_axis_angle(glam::Vec3::new(1.0, 2.0, -0.5).normalize(), 2.1);
+    let t = [3.0f32, -1.0, 0.5];
+    let (lengths, energy) = (edge_lengths(&b), b.energy());
+    b.transform(q, t, true).unwrap();
+    let moved = b.energy();
+    for (l0, l1) in lengths.iter().zip(edge_lengths(&b)) {
+        assert!((l1 - l0).abs() < 2e-6 * l0 + 1e-6, "{l0} -> {l1}");
+    }
+    assert!((moved.elastic - energy.elastic).abs() < 1e-4 * energy.elastic);
+    assert!((moved.kinetic - energy.kinetic).abs() < 1e-5 * energy.kinetic);
+    for _ in 0..10 {
+        a.step().unwrap();
+        b.step().unwrap();
+    }
+    let r = glam::Mat3A::from_quat(q);
+    for ((xa, xb), (va, vb)) in a
+        .positions()
+        .iter()
+        .zip(b.positions())
+        .zip(a.velocities().iter().zip(b.velocities()))
+    {
+        assert!(
+            (r * *xa + Vec3A::from(t) - *xb).length() < 1e-4,
+            "{xa} {xb}"
+        );
+        assert!(
+            (r * *va - *vb).length() < 1e-3 * va.length() + 1e-4,
+            "{va} {vb}"
+        );
+    }
+    // without the velocity: at rest, same shape
+    b.transform(glam::Quat::IDENTITY, [0.0, 0.0, 1.0], false)
+        .unwrap();
+    assert_eq!(b.energy().kinetic, 0.0);
+    assert_eq!(
+        b.transform(glam::Quat::from_xyzw(0.0, 0.0, 0.0, 0.0), t, true),
+        Err(EditError::InvalidRotation)
+    );
+    assert_eq!(
+        b.transform(glam::Quat::IDENTITY, [f32::NAN, 0.0, 0.0], true),
+        Err(EditError::NonFinite)
+    );
+}
+
+/// Pins move with a teleport: a cloth hanging from two corners, moved and turned, keeps
+/// hanging from them (the pins do not yank it back).
+#[test]
+fn pins_move_with_a_teleport() {
+    let mat = [anisotropic()];
+    let sheet = hanging_sheet(6, 0.3);
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mat, rail_settings());
+    let (pa, _) = pin_top_corners(&mut w, &sheet);
+    for _ in 0..20 {
+        w.step().unwrap();
+    }
+    let q = glam::Quat::from_rotation_z(1.0);
+    w.transform(q, [5.0, 0.0, 0.0], true).unwrap();
+    let s = w.step().unwrap();
+    assert_eq!(s.energy_removed, 0.0, "{s:?}");
+    let expected = glam::Mat3A::from_quat(q) * Vec3A::from(sheet.positions[pa as usize])
+        + Vec3A::new(5.0, 0.0, 0.0);
+    assert!((w.positions()[pa as usize] - expected).length() < 1e-5);
+}

@@ -134,13 +134,6 @@ pub(super) unsafe fn strided_out<'a, const N: usize>(
     StridedMut::new(bytes, stride, count).map_err(|_| invalid(stride_what))
 }
 
-/// Copies vectors to a strided output (positions, velocities).
-pub(super) fn put_vec3s(out: &mut StridedMut<'_, 3>, src: &[Vec3A]) {
-    for (i, v) in src.iter().enumerate() {
-        out.set(i, v.to_array());
-    }
-}
-
 pub(super) fn vec3(v: WeftVec3) -> [f32; 3] {
     [v.x, v.y, v.z]
 }

@@ -2,16 +2,18 @@
 
 use core::ffi::{c_void, CStr};
 
-use glam::Vec3A;
+use glam::Quat;
 
 use super::convert::*;
-use super::result::{edit_fault, fault};
+use super::result::{edit_fault, fault, invalid};
 use super::types::*;
 use super::*;
 use crate::collide::Collider;
 use crate::strided::Strided;
 use crate::world::{EditError, PinAxes, World};
 
+/// Every vertex's 3 floats out, `count` ≥ the vertex count (`COUNT_MISMATCH` otherwise).
+///
 /// # Safety
 /// `out` writable for the strided extent; `world` as [`world_at`].
 unsafe fn get_vec3s(
@@ -19,23 +21,18 @@ unsafe fn get_vec3s(
     out: *mut c_void,
     count: u32,
     stride: usize,
-    which: for<'w> fn(&'w World<'static>) -> &'w [Vec3A],
+    value: fn(&World<'static>, usize) -> Option<[f32; 3]>,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let src = which(&w.world);
-        let n = src.len();
-        if (count as usize) < n {
-            let mut f = fault(WeftResult::CountMismatch).what(c"count");
-            f.needed = n as u32;
-            return Err(f);
-        }
-        // SAFETY: writable for the extent per the contract, disjoint from the world.
-        let mut out = unsafe { strided_out::<3>(out, n, stride, c"out", c"stride") }?;
-        put_vec3s(&mut out, src);
-        Ok(())
-    })())
+    // SAFETY: forwarded contract.
+    let n = match unsafe { world_at(world) } {
+        Ok(w) => w.world.vertex_count(),
+        Err(d) => return d.result,
+    };
+    if (count as usize) < n {
+        return WeftResult::CountMismatch;
+    }
+    // SAFETY: forwarded contract.
+    unsafe { get_range(world, 0, count32(n), out, stride, value) }
 }
 
 /// Copies `count` per-vertex values of vertices `first..first + count` out: vertex
@@ -111,7 +108,11 @@ pub unsafe extern "C" fn weft_world_get_positions(
     stride: usize,
 ) -> WeftResult {
     // SAFETY: forwarded contract.
-    unsafe { get_vec3s(world, out, count, stride, |w| w.positions()) }
+    unsafe {
+        get_vec3s(world, out, count, stride, |w, i| {
+            w.positions().get(i).map(|p| p.to_array())
+        })
+    }
 }
 
 /// Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
@@ -126,7 +127,11 @@ pub unsafe extern "C" fn weft_world_get_velocities(
     stride: usize,
 ) -> WeftResult {
     // SAFETY: forwarded contract.
-    unsafe { get_vec3s(world, out, count, stride, |w| w.velocities()) }
+    unsafe {
+        get_vec3s(world, out, count, stride, |w, i| {
+            w.velocities().get(i).map(|v| v.to_array())
+        })
+    }
 }
 
 /// An edit of the world from `count` groups of `N` floats at `src` (`stride` bytes apart) for
@@ -243,6 +248,144 @@ pub unsafe extern "C" fn weft_world_set_velocities(
 ) -> WeftResult {
     // SAFETY: forwarded contract.
     unsafe { set_vec3s(world, src, count, stride, true) }
+}
+
+/// Copies the positions (metres) of vertices `first .. first + count - 1` out: vertex
+/// `first + k`'s 3 floats to byte `k * stride` of `out` (written unaligned, `stride` ≥ 12).
+/// A range past the last vertex is `WEFT_RESULT_VERTEX_OUT_OF_RANGE` (`detail.needed` is the
+/// vertex count) and writes nothing.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+/// `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_get_positions_range(
+    world: *const WeftWorld,
+    first: u32,
+    count: u32,
+    out: *mut c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        get_range(world, first, count, out, stride, |w, i| {
+            w.positions().get(i).map(|p| p.to_array())
+        })
+    }
+}
+
+/// Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
+/// `weft_world_get_positions_range`.
+///
+/// # Safety
+/// As `weft_world_get_positions_range`.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_get_velocities_range(
+    world: *const WeftWorld,
+    first: u32,
+    count: u32,
+    out: *mut c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        get_range(world, first, count, out, stride, |w, i| {
+            w.velocities().get(i).map(|v| v.to_array())
+        })
+    }
+}
+
+/// Overwrites the positions (metres) of vertices `first .. first + count - 1` from `src`
+/// (vertex `first + k` at byte `k * stride`, read unaligned, `stride` ≥ 12); the others keep
+/// theirs. Checks the range and every value first (`WEFT_RESULT_NON_FINITE` names the
+/// vertex); nothing changes on failure. Wakes the world.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+/// `(count - 1) * stride + 12` bytes.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_positions_range(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        edit_range(
+            world,
+            first,
+            count,
+            src,
+            stride,
+            c"positions",
+            World::set_positions_range,
+        )
+    }
+}
+
+/// Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
+/// `weft_world_set_positions_range`, and forgets the solver's warm start.
+///
+/// # Safety
+/// As `weft_world_set_positions_range`.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_velocities_range(
+    world: *mut WeftWorld,
+    first: u32,
+    count: u32,
+    src: *const c_void,
+    stride: usize,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        edit_range(
+            world,
+            first,
+            count,
+            src,
+            stride,
+            c"velocities",
+            World::set_velocities_range,
+        )
+    }
+}
+
+/// Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres),
+/// `R` the rotation of `rotation` (normalized; it must be finite and not zero), so the
+/// cloth's shape and elastic energy are kept (a teleport with a character). `keep_velocity`
+/// 1: the velocities turn with it (`v ← R v`) and the motion goes on in the new frame; 0: the
+/// cloth is left at rest; anything else is `WEFT_RESULT_INVALID_ARGUMENT`. Pin targets move
+/// with the cloth (set them again if they should not); contacts are forgotten, colliders stay
+/// where they are. Wakes the world.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_transform(
+    world: *mut WeftWorld,
+    rotation: WeftQuat,
+    translation: WeftVec3,
+    keep_velocity: u32,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            let keep = match keep_velocity {
+                0 => false,
+                1 => true,
+                _ => return Err(invalid(c"keep_velocity")),
+            };
+            let q = Quat::from_xyzw(rotation.x, rotation.y, rotation.z, rotation.w);
+            w.world
+                .transform(q, vec3(translation), keep)
+                .map_err(|e| match e {
+                    EditError::NonFinite => fault(WeftResult::NonFinite).what(c"transform"),
+                    e => edit_fault(e, &w.world),
+                })
+        })
+    }
 }
 
 /// Adds forces (newtons) to vertices `first .. first + count - 1` for the next

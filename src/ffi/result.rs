@@ -444,6 +444,7 @@ pub(super) fn edit_fault(e: EditError, w: &World<'_>) -> Fault {
         EditError::InvalidCollider => fault(R::InvalidCollider),
         EditError::InvalidMassScale { vertex } => invalid(c"scales").vertex(vertex),
         EditError::InvalidAxis => invalid(c"axis"),
+        EditError::InvalidRotation => invalid(c"rotation"),
     }
 }
 

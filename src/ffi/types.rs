@@ -29,6 +29,21 @@ pub struct WeftVec2 {
     pub y: f32,
 }
 
+/// A rotation as a unit quaternion `w + x i + y j + z k` (a non-unit one is normalized).
+/// 16 bytes, no padding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeftQuat {
+    /// i component.
+    pub x: f32,
+    /// j component.
+    pub y: f32,
+    /// k component.
+    pub z: f32,
+    /// Real component (1 for no rotation).
+    pub w: f32,
+}
+
 /// How much a world holds, fixed at create; `weft_world_memory_size` turns it into bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

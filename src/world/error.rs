@@ -122,6 +122,8 @@ pub enum EditError {
     InvalidCollider,
     /// A pin's plane normal or line direction is zero or not finite.
     InvalidAxis,
+    /// A rotation quaternion of zero length.
+    InvalidRotation,
     /// A mass scale that is not finite and positive, or gives a mass beyond `f32`.
     InvalidMassScale {
         vertex: u32,
@@ -199,6 +201,7 @@ impl fmt::Display for EditError {
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
             EditError::InvalidMassScale { .. } => "invalid mass scale",
             EditError::InvalidAxis => "a pin's normal or direction is zero or not finite",
+            EditError::InvalidRotation => "the rotation quaternion has zero length",
         })
     }
 }

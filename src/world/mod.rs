@@ -23,10 +23,7 @@ pub(crate) use memory::{Arrays, Counts};
 pub use settings::{effects, Settings, Solver};
 
 use core::ops::Not;
-#[cfg(feature = "research")]
-use glam::Quat;
-
-use glam::{Mat3A, Vec3A};
+use glam::{Mat3A, Quat, Vec3A};
 
 use crate::blob::Blob;
 use crate::collide::{Collider, Shape};
@@ -384,6 +381,45 @@ impl<'a> World<'a> {
             *v = Vec3A::from(velocities.get(k).ok_or(EditError::VertexOutOfRange)?);
         }
         prefix_mut(self.a.dv, self.n).fill(Vec3A::ZERO);
+        self.wake();
+        Ok(())
+    }
+
+    /// Moves the whole cloth rigidly, `x ← R x + t` (a teleport with a character): its shape,
+    /// and so its elastic and bending energy, is kept. With `keep_velocity` the velocities
+    /// (and the solver's warm start) turn with it, `v ← R v`, so the motion goes on in the new
+    /// frame; otherwise the cloth is at rest. Pin targets move with the cloth (set them again
+    /// if they should not); contacts are forgotten, colliders stay. `rotation` must be finite
+    /// and non-zero (it is normalized), `translation` finite. Wakes the world.
+    pub fn transform(
+        &mut self,
+        rotation: Quat,
+        translation: [f32; 3],
+        keep_velocity: bool,
+    ) -> Result<(), EditError> {
+        let t = Vec3A::from(translation);
+        if !(rotation.is_finite() && t.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        if rotation.length_squared() < f32::MIN_POSITIVE {
+            return Err(EditError::InvalidRotation);
+        }
+        let r = Mat3A::from_quat(rotation.normalize());
+        let (n, pins) = (self.n, self.pins);
+        let a = &mut self.a;
+        let moved = prefix_mut(a.x, n).iter_mut();
+        let targets = prefix_mut(a.pin_target, pins).iter_mut();
+        for x in moved.chain(targets).chain(prefix_mut(a.pin_previous, pins)) {
+            *x = r * *x + t;
+        }
+        for free in prefix_mut(a.pin_free, pins) {
+            *free = r * *free * r.transpose();
+        }
+        for v in prefix_mut(a.v, n).iter_mut().chain(prefix_mut(a.dv, n)) {
+            *v = if keep_velocity { r * *v } else { Vec3A::ZERO };
+        }
+        prefix_mut(a.contact, n).fill(mesh::NONE);
+        self.refresh_frames(8);
         self.wake();
         Ok(())
     }
