@@ -5,6 +5,7 @@
  * - forces, impulses and per-vertex mass scales (a heavier hem);
  * - a curtain on rings that slide along an inclined rail (pins that hold some directions);
  * - a range of vertices in and out, and a rigid teleport that keeps the shape and motion;
+ * - colliders removed one at a time by id, and the engine's pointer on the world;
  *
  *   cc -std=c11 -I include c_examples/engine_api.c target/ship/libweft.a -o engine_api
  *   ./engine_api cells.weft
@@ -265,6 +266,38 @@ static void ranges_and_teleport(WeftWorld *world)
           "keep_velocity is 0 or 1", 0.0);
 }
 
+/* Three colliders; the first removed: the others keep their ids, the removed one is refused. */
+static void collider_ids_and_user_data(WeftWorld *world)
+{
+    static int owner = 42;
+    WeftColliderDef def = weft_default_collider_def();
+    WeftShape far_away = weft_shape_sphere((WeftVec3){0.0f, 50.0f, 0.0f}, 0.1f);
+    uint32_t a, b, c, d;
+
+    def.shape = far_away;
+    MUST(weft_world_add_collider(world, &def, &a));
+    def.shape = weft_shape_plane((WeftVec3){0.0f, 0.0f, 1.0f}, -5.0f);
+    MUST(weft_world_add_collider(world, &def, &b));
+    def.shape = far_away;
+    MUST(weft_world_add_collider(world, &def, &c));
+    MUST(weft_world_remove_collider(world, a));
+    check(weft_world_collider_count(world) == 2 &&
+              weft_world_set_collider(world, c, &far_away) == WEFT_RESULT_OK &&
+              weft_world_set_collider(world, b, &far_away) == WEFT_RESULT_OK,
+          "the other colliders keep their ids", 0.0);
+    check(weft_world_remove_collider(world, a) == WEFT_RESULT_UNKNOWN_COLLIDER &&
+              weft_world_set_collider(world, a, &far_away) == WEFT_RESULT_UNKNOWN_COLLIDER,
+          "a removed collider's id is refused", (double)a);
+    MUST(weft_world_add_collider(world, &def, &d));
+    check(d != a && d != b && d != c, "a new collider gets a new id", (double)d);
+    MUST(weft_world_clear_colliders(world));
+
+    check(weft_world_user_data(world) == NULL, "no user data at first", 0.0);
+    MUST(weft_world_set_user_data(world, &owner));
+    check(weft_world_user_data(world) == &owner && *(int *)weft_world_user_data(world) == 42,
+          "the world carries the engine's pointer", 0.0);
+}
+
 int main(int argc, char **argv)
 {
     WeftErrorDetail detail;
@@ -311,6 +344,7 @@ int main(int argc, char **argv)
     forces_impulses_masses(world);
     curtain_on_a_rail(world);
     ranges_and_teleport(world);
+    collider_ids_and_user_data(world);
 
     MUST(weft_world_destroy(world));
     free(memory);

@@ -191,7 +191,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3995184
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3995216
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
@@ -444,9 +444,9 @@ enum WeftResult
      */
     WEFT_RESULT_VERTEX_OUT_OF_RANGE = 60,
     /**
-     * Collider `detail.index` does not exist.
+     * No collider has the id `detail.index`: it was never added, or it was removed.
      */
-    WEFT_RESULT_COLLIDER_OUT_OF_RANGE = 61,
+    WEFT_RESULT_UNKNOWN_COLLIDER = 61,
     /**
      * A collider's numbers are invalid: non-finite, radius ≤ 0, a plane normal that is not unit
      * length (±0.001), friction or thickness < 0. `detail.what` names the field when known.
@@ -1246,6 +1246,24 @@ WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
 WeftResult weft_world_set_solver(struct WeftWorld *world, uint32_t solver);
 
 /**
+ * Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
+ * it), for `weft_world_user_data` to give back; weft never reads it. NULL at create.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_set_user_data(struct WeftWorld *world, void *user_data);
+
+/**
+ * The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
+ * handle).
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+void *weft_world_user_data(const struct WeftWorld *world);
+
+/**
  * Whether the world is asleep (false for an invalid handle).
  *
  * # Safety
@@ -1532,7 +1550,9 @@ uint32_t weft_world_pin_count(const struct WeftWorld *world);
 
 /**
  * Adds a kinematic collider (the engine moves it; the cloth does not push back) and writes
- * its index (0, 1, 2 ... in order of addition) to `*out_index` when that is not NULL.
+ * its id to `*out_index` when that is not NULL. The id names the collider until it is removed,
+ * whatever else is added or removed (0, 1, 2 ... in order of addition; a removed collider's
+ * id is not given again).
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `def` is readable; a non-NULL
@@ -1543,7 +1563,8 @@ WeftResult weft_world_add_collider(struct WeftWorld *world,
                                    uint32_t *out_index);
 
 /**
- * Moves collider `index` to `*shape` (same or another kind). The next step sweeps it linearly
+ * Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (same or another
+ * kind); an id of no collider is `WEFT_RESULT_UNKNOWN_COLLIDER`. The next step sweeps it linearly
  * from where it was at the last step (a change of kind teleports). Wakes the world when it
  * moved.
  *
@@ -1555,7 +1576,17 @@ WeftResult weft_world_set_collider(struct WeftWorld *world,
                                    const struct WeftShape *shape);
 
 /**
- * Removes every collider. Wakes the world.
+ * Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
+ * that names no collider (never added, or removed already) is `WEFT_RESULT_UNKNOWN_COLLIDER`
+ * (`detail.index` the id). Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+WeftResult weft_world_remove_collider(struct WeftWorld *world, uint32_t id);
+
+/**
+ * Removes every collider (their ids are not given again). Wakes the world.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).

@@ -226,6 +226,9 @@ fn engine_api_c() {
             "a range of positions round-trips: ok",
             "a teleport keeps the shape: ok",
             "a teleport turns the velocities: ok",
+            "the other colliders keep their ids: ok",
+            "a removed collider's id is refused: ok",
+            "the world carries the engine's pointer: ok",
             "engine_api: ok",
         ],
     );

@@ -495,3 +495,73 @@ fn pins_move_with_a_teleport() {
         + Vec3A::new(5.0, 0.0, 0.0);
     assert!((w.positions()[pa as usize] - expected).length() < 1e-5);
 }
+
+/// Collider ids name their collider across removals: removing one leaves the others' ids,
+/// shapes and contacts alone, and a removed id is refused. A cloth resting on the floor stays
+/// on it when a sphere beside it is removed, and falls when the floor is.
+#[test]
+fn collider_ids_survive_the_removal_of_others() {
+    use weft::collide::{Collider, Shape};
+    let mat = [anisotropic()];
+    let mut sheet = Sheet::grid(6, 6, 0.3, 0.3);
+    sheet.transform(|p| [p[0], p[1], 0.006]);
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        effects: effects::WARPING | effects::GRAVITY | effects::COLLISION | effects::DAMPING,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mat, settings);
+    let sphere = |x: f32| Shape::Sphere {
+        center: Vec3A::new(x, 5.0, 0.0),
+        radius: 0.1,
+    };
+    let floor = Shape::Plane {
+        normal: Vec3A::Z,
+        offset: 0.0,
+    };
+    let a = w
+        .add_collider(Collider::new(sphere(0.0), 0.5, 0.005))
+        .unwrap();
+    let b = w
+        .add_collider(Collider::new(sphere(1.0), 0.5, 0.005))
+        .unwrap();
+    let f = w.add_collider(Collider::new(floor, 0.5, 0.005)).unwrap();
+    assert_eq!((a, b, f), (0, 1, 2));
+    for _ in 0..20 {
+        w.step().unwrap();
+    }
+    assert!(w.last_step().contacts > 0);
+    w.remove_collider(a).unwrap();
+    assert_eq!(w.collider_count(), 2);
+    assert_eq!(w.collider(f).unwrap().shape, floor);
+    assert_eq!(w.collider(b).unwrap().shape, sphere(1.0));
+    assert_eq!(w.remove_collider(a), Err(EditError::UnknownCollider));
+    assert_eq!(
+        w.set_collider_shape(a, sphere(2.0)),
+        Err(EditError::UnknownCollider)
+    );
+    assert!(w.collider(a).is_none());
+    // the floor (moved into the removed one's slot, its contacts with it) still holds the
+    // cloth
+    for _ in 0..20 {
+        w.step().unwrap();
+    }
+    assert!(w.positions().iter().all(|p| p.z > 0.004), "on the floor");
+    assert_eq!(w.last_step().contacts, w.vertex_count() as u32);
+    // a new collider gets a new id
+    let c = w
+        .add_collider(Collider::new(sphere(3.0), 0.5, 0.005))
+        .unwrap();
+    assert_eq!(c, 3);
+    w.set_collider_shape(b, sphere(4.0)).unwrap();
+    assert_eq!(w.collider(c).unwrap().shape, sphere(3.0));
+    w.remove_collider(f).unwrap();
+    for _ in 0..10 {
+        w.step().unwrap();
+    }
+    assert!(
+        w.positions().iter().all(|p| p.z < -0.01),
+        "falls without the floor"
+    );
+    assert_eq!(w.collider_ids(), &[c, b][..]);
+}

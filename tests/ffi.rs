@@ -1027,7 +1027,7 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     let s = weft_shape_sphere(v(0.0, 0.0, 0.0), 0.1);
     assert_eq!(
         unsafe { weft_world_set_collider(w, 2, &s) },
-        WeftResult::ColliderOutOfRange
+        WeftResult::UnknownCollider
     );
     detail(&mut d);
     assert_eq!(d.index, 2);

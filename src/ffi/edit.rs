@@ -603,7 +603,9 @@ pub unsafe extern "C" fn weft_world_pin_count(world: *const WeftWorld) -> u32 {
 }
 
 /// Adds a kinematic collider (the engine moves it; the cloth does not push back) and writes
-/// its index (0, 1, 2 ... in order of addition) to `*out_index` when that is not NULL.
+/// its id to `*out_index` when that is not NULL. The id names the collider until it is removed,
+/// whatever else is added or removed (0, 1, 2 ... in order of addition; a removed collider's
+/// id is not given again).
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `def` is readable; a non-NULL
@@ -641,7 +643,8 @@ pub unsafe extern "C" fn weft_world_add_collider(
     }
 }
 
-/// Moves collider `index` to `*shape` (same or another kind). The next step sweeps it linearly
+/// Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (same or another
+/// kind); an id of no collider is `WEFT_RESULT_UNKNOWN_COLLIDER`. The next step sweeps it linearly
 /// from where it was at the last step (a change of kind teleports). Wakes the world when it
 /// moved.
 ///
@@ -664,7 +667,25 @@ pub unsafe extern "C" fn weft_world_set_collider(
     }
 }
 
-/// Removes every collider. Wakes the world.
+/// Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
+/// that names no collider (never added, or removed already) is `WEFT_RESULT_UNKNOWN_COLLIDER`
+/// (`detail.index` the id). Wakes the world.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_remove_collider(world: *mut WeftWorld, id: u32) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            w.world
+                .remove_collider(id)
+                .map_err(|e| edit_fault(e, &w.world).index(id))
+        })
+    }
+}
+
+/// Removes every collider (their ids are not given again). Wakes the world.
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).

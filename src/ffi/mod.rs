@@ -123,7 +123,7 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// in bytes, a multiple of `WEFT_WORLD_MEMORY_ALIGN`: lets a default-capacity world live in a
 /// static array. It changes between library versions; query `weft_world_memory_size` for any
 /// other capacity.
-pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_995_184;
+pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_995_216;
 
 /// `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
 /// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I

@@ -113,8 +113,8 @@ pub enum WeftResult {
 
     /// Vertex `detail.vertex` is ≥ the world's vertex count.
     VertexOutOfRange = 60,
-    /// Collider `detail.index` does not exist.
-    ColliderOutOfRange = 61,
+    /// No collider has the id `detail.index`: it was never added, or it was removed.
+    UnknownCollider = 61,
     /// A collider's numbers are invalid: non-finite, radius ≤ 0, a plane normal that is not unit
     /// length (±0.001), friction or thickness < 0. `detail.what` names the field when known.
     InvalidCollider = 62,
@@ -322,7 +322,7 @@ fn message(result: WeftResult) -> &'static CStr {
         R::BlobInvalidCell => c"blob cell holds invalid data",
         R::BlobCellOutOfRange => c"blob cell index out of range",
         R::VertexOutOfRange => c"vertex index out of range",
-        R::ColliderOutOfRange => c"collider index out of range",
+        R::UnknownCollider => c"no collider has that id (never added, or removed)",
         R::InvalidCollider => c"invalid collider",
         R::NonFinite => c"value not finite",
         R::InvalidTimeStep => c"time step not finite and positive",
@@ -440,7 +440,7 @@ pub(super) fn edit_fault(e: EditError, w: &World<'_>) -> Fault {
         EditError::ColliderCapacity => {
             fault(R::ColliderCapacity).needed(cap.colliders + 1, cap.colliders)
         }
-        EditError::ColliderOutOfRange => fault(R::ColliderOutOfRange),
+        EditError::UnknownCollider => fault(R::UnknownCollider),
         EditError::InvalidCollider => fault(R::InvalidCollider),
         EditError::InvalidMassScale { vertex } => invalid(c"scales").vertex(vertex),
         EditError::InvalidAxis => invalid(c"axis"),

@@ -300,4 +300,6 @@ pub struct WeftWorld {
     pub(super) cloth_key: u64,
     /// The last failure of a call that took this world mutably.
     pub(super) last_error: WeftErrorDetail,
+    /// The engine's pointer (`weft_world_set_user_data`); never read by weft.
+    pub(super) user_data: *mut c_void,
 }

@@ -317,6 +317,7 @@ unsafe fn create(
             blob: parsed,
             cloth_key,
             last_error: WeftErrorDetail::of(R::Ok),
+            user_data: core::ptr::null_mut(),
         });
         out.write(handle);
     }
@@ -465,6 +466,36 @@ pub unsafe extern "C" fn weft_world_set_solver(world: *mut WeftWorld, solver: u3
             Ok(())
         })
     }
+}
+
+/// Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
+/// it), for `weft_world_user_data` to give back; weft never reads it. NULL at create.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_user_data(
+    world: *mut WeftWorld,
+    user_data: *mut c_void,
+) -> WeftResult {
+    // SAFETY: forwarded contract.
+    unsafe {
+        with_world(world, |w| {
+            w.user_data = user_data;
+            Ok(())
+        })
+    }
+}
+
+/// The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
+/// handle).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_user_data(world: *const WeftWorld) -> *mut c_void {
+    // SAFETY: forwarded contract.
+    unsafe { world_at(world) }.map_or(core::ptr::null_mut(), |w| w.user_data)
 }
 
 /// Whether the world is asleep (false for an invalid handle).

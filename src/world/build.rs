@@ -88,6 +88,7 @@ impl<'a> World<'a> {
             nnz: 0,
             pins: 0,
             colliders: 0,
+            next_collider_id: 0,
             total_mass: 0.0,
             calm_frames: 0,
             level: None,

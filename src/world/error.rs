@@ -118,7 +118,8 @@ pub enum EditError {
     NonFinite,
     PinCapacity,
     ColliderCapacity,
-    ColliderOutOfRange,
+    /// No collider has that id (never added, or removed).
+    UnknownCollider,
     InvalidCollider,
     /// A pin's plane normal or line direction is zero or not finite.
     InvalidAxis,
@@ -197,7 +198,7 @@ impl fmt::Display for EditError {
             EditError::NonFinite => "a value is NaN or infinite",
             EditError::PinCapacity => "no room for another pin",
             EditError::ColliderCapacity => "no room for another collider",
-            EditError::ColliderOutOfRange => "no collider with that index",
+            EditError::UnknownCollider => "no collider has that id (never added, or removed)",
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
             EditError::InvalidMassScale { .. } => "invalid mass scale",
             EditError::InvalidAxis => "a pin's normal or direction is zero or not finite",

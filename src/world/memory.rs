@@ -195,6 +195,9 @@ arrays! { cap;
     /// The directions each pin leaves free, as the PCG filter `S` of its vertex: 0 for a
     /// point, `I − n nᵀ` for a plane, `d dᵀ` for a line (see `PinAxes`).
     pin_free: Mat3A = [cap.p(); Mat3A::ZERO],
+    /// The id of the collider in each slot (ids stay with their collider when another is
+    /// removed; the slots stay packed).
+    collider_id: u32 = [cap.c(); mesh::NONE],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
 }
 

@@ -218,6 +218,8 @@ pub struct World<'a> {
     nnz: usize,
     pins: usize,
     colliders: usize,
+    /// The id the next collider gets (ids are not reused while their collider lives).
+    next_collider_id: u32,
     /// Per-vertex lumped mass sum, kg.
     total_mass: f64,
     calm_frames: u32,
@@ -651,7 +653,9 @@ impl<'a> World<'a> {
 
     // ----- colliders -----
 
-    /// Adds a collider; returns its index.
+    /// Adds a collider; returns its id, which names it until it is removed, whatever else is
+    /// added or removed (0, 1, 2 ... in order of addition; a removed collider's id is not
+    /// given again until the 32-bit counter wraps).
     pub fn add_collider(&mut self, collider: Collider) -> Result<u32, EditError> {
         if !collider.is_valid() {
             return Err(EditError::InvalidCollider);
@@ -659,25 +663,40 @@ impl<'a> World<'a> {
         if self.colliders >= self.capacity.c() {
             return Err(EditError::ColliderCapacity);
         }
-        let slot = self
-            .a
-            .colliders
-            .get_mut(self.colliders)
-            .ok_or(EditError::ColliderCapacity)?;
+        // (after a wrap of the counter, skip the ids still in use)
+        let mut id = self.next_collider_id;
+        while id == mesh::NONE || self.collider_slot(id).is_some() {
+            id = id.wrapping_add(1);
+        }
+        let k = self.colliders;
+        let (Some(slot), Some(slot_id)) =
+            (self.a.colliders.get_mut(k), self.a.collider_id.get_mut(k))
+        else {
+            return Err(EditError::ColliderCapacity);
+        };
         *slot = collider;
+        *slot_id = id;
         self.colliders += 1;
+        self.next_collider_id = id.wrapping_add(1);
         self.wake();
-        Ok(self.colliders as u32 - 1)
+        Ok(id)
     }
 
-    /// Moves collider `index` to `shape`; the next step sweeps it from where it was.
-    pub fn set_collider_shape(&mut self, index: u32, shape: Shape) -> Result<(), EditError> {
+    /// The slot of the collider `id` (colliders are packed in slots `..colliders`).
+    fn collider_slot(&self, id: u32) -> Option<usize> {
+        prefix(self.a.collider_id, self.colliders)
+            .iter()
+            .position(|&c| c == id)
+    }
+
+    /// Moves collider `id` to `shape`; the next step sweeps it from where it was.
+    pub fn set_collider_shape(&mut self, id: u32, shape: Shape) -> Result<(), EditError> {
+        let k = self.collider_slot(id).ok_or(EditError::UnknownCollider)?;
         let c = self
             .a
             .colliders
-            .get_mut(..self.colliders)
-            .and_then(|c| c.get_mut(index as usize))
-            .ok_or(EditError::ColliderOutOfRange)?;
+            .get_mut(k)
+            .ok_or(EditError::UnknownCollider)?;
         if !shape.is_valid() {
             return Err(EditError::InvalidCollider);
         }
@@ -688,15 +707,54 @@ impl<'a> World<'a> {
         Ok(())
     }
 
-    pub fn collider(&self, index: u32) -> Option<&Collider> {
-        prefix(self.a.colliders, self.colliders).get(index as usize)
+    /// Collider `id`, if it exists.
+    pub fn collider(&self, id: u32) -> Option<&Collider> {
+        self.a.colliders.get(self.collider_slot(id)?)
+    }
+
+    /// The ids of the colliders, in slot order.
+    pub fn collider_ids(&self) -> &[u32] {
+        prefix(self.a.collider_id, self.colliders)
     }
 
     pub fn collider_count(&self) -> usize {
         self.colliders
     }
 
-    /// Removes all colliders.
+    /// Removes collider `id`; the other colliders keep their ids. An id that names no
+    /// collider (never added, or removed already) is [`EditError::UnknownCollider`]. Wakes
+    /// the world.
+    pub fn remove_collider(&mut self, id: u32) -> Result<(), EditError> {
+        let k = self.collider_slot(id).ok_or(EditError::UnknownCollider)?;
+        let last = self.colliders - 1;
+        let a = &mut self.a;
+        if last >= a.colliders.len().min(a.collider_id.len()) {
+            return Err(EditError::UnknownCollider); // (slots below the count always exist)
+        }
+        // the last slot moves into the hole, and the contacts follow their collider
+        a.colliders.swap(k, last);
+        a.collider_id.swap(k, last);
+        let (k, last) = (k as u32, last as u32);
+        let contacts = prefix_mut(a.contact, self.n)
+            .iter_mut()
+            .chain(prefix_mut(a.contact_start, self.n));
+        for c in contacts {
+            if *c == mesh::NONE {
+                continue;
+            }
+            let (collider, stick) = (*c & !step::contacts::STICK, *c & step::contacts::STICK);
+            if collider == k {
+                *c = mesh::NONE;
+            } else if collider == last {
+                *c = k | stick;
+            }
+        }
+        self.colliders -= 1;
+        self.wake();
+        Ok(())
+    }
+
+    /// Removes all colliders (their ids are not given again).
     pub fn clear_colliders(&mut self) {
         self.colliders = 0;
         prefix_mut(self.a.contact, self.n).fill(mesh::NONE);
