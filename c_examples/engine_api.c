@@ -96,8 +96,8 @@ static WeftVec3 momentum(const WeftWorld *world)
     static float m[VERTS];
     WeftVec3 p = {0.0f, 0.0f, 0.0f};
     int i;
-    MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3)));
-    MUST(weft_world_get_masses(world, 0, VERTS, m, sizeof(float)));
+    MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3), NULL));
+    MUST(weft_world_get_masses(world, 0, VERTS, m, sizeof(float), NULL));
     for (i = 0; i < VERTS; ++i) {
         p.x += m[i] * v[i].x;
         p.y += m[i] * v[i].y;
@@ -126,8 +126,8 @@ static void forces_impulses_masses(WeftWorld *world)
         push[i].force.z = 0.0f;
         push[i].tag = -1.0f;
     }
-    MUST(weft_world_add_forces(world, 0, VERTS, &push[0].force, sizeof push[0]));
-    MUST(weft_world_step(world, DT, NULL));
+    MUST(weft_world_add_forces(world, 0, VERTS, &push[0].force, sizeof push[0], NULL));
+    MUST(weft_world_step(world, DT, NULL, NULL));
     p1 = momentum(world);
     /* Σ F dt = 64 / 5 * (0 + 1 + 2 + 3 + 4) mN ... exactly: */
     {
@@ -138,30 +138,30 @@ static void forces_impulses_masses(WeftWorld *world)
               "a force changes the momentum by F dt", (double)(p1.x - p0.x));
     }
     /* cleared after the step: the next one keeps the momentum */
-    MUST(weft_world_step(world, DT, NULL));
+    MUST(weft_world_step(world, DT, NULL, NULL));
     check(fabsf(momentum(world).x - p1.x) < 1e-3f * fabsf(p1.x), "forces last one step",
           (double)momentum(world).x);
 
     /* an impulse on vertex 10: Δp = J */
     p0 = momentum(world);
-    MUST(weft_world_add_impulses(world, 10, 1, &kick, sizeof kick));
+    MUST(weft_world_add_impulses(world, 10, 1, &kick, sizeof kick, NULL));
     p1 = momentum(world);
     check(fabsf(p1.y - p0.y - kick.y) < 1e-6f, "an impulse changes the momentum by J",
           (double)(p1.y - p0.y));
 
     /* a hem three times heavier: the bottom row */
-    MUST(weft_world_get_masses(world, 0, VERTS, rest, sizeof(float)));
+    MUST(weft_world_get_masses(world, 0, VERTS, rest, sizeof(float), NULL));
     for (i = 0; i < N; ++i)
         hem[i] = 3.0f;
-    MUST(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float)));
-    MUST(weft_world_get_masses(world, 0, VERTS, scaled, sizeof(float)));
+    MUST(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float), NULL));
+    MUST(weft_world_get_masses(world, 0, VERTS, scaled, sizeof(float), NULL));
     check(scaled[0] == 3.0f * rest[0] && scaled[N] == rest[N], "a heavier hem",
           (double)(scaled[0] / rest[0]));
     hem[2] = 0.0f;
-    check(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float)) ==
+    check(weft_world_set_mass_scales(world, 0, N, hem, sizeof(float), NULL) ==
               WEFT_RESULT_INVALID_ARGUMENT,
           "a zero mass scale is refused", 0.0);
-    check(weft_world_add_forces(world, VERTS - 1, 2, push, sizeof push[0]) ==
+    check(weft_world_add_forces(world, VERTS - 1, 2, push, sizeof push[0], NULL) ==
               WEFT_RESULT_VERTEX_OUT_OF_RANGE,
           "forces past the last vertex are refused", 0.0);
 }
@@ -179,27 +179,27 @@ static void curtain_on_a_rail(WeftWorld *world)
     float mass = 0.0f, along;
     int i, frames = 30;
 
-    MUST(weft_world_get_settings(world, &settings));
+    MUST(weft_world_get_settings(world, &settings, NULL));
     settings.effects |= WEFT_EFFECT_GRAVITY;
-    MUST(weft_world_set_settings(world, &settings));
-    MUST(weft_world_get_masses(world, 0, VERTS, m, sizeof(float)));
+    MUST(weft_world_set_settings(world, &settings, NULL));
+    MUST(weft_world_get_masses(world, 0, VERTS, m, sizeof(float), NULL));
     for (i = 0; i < VERTS; ++i)
         mass += m[i];
     /* (the rings where they are: the cloth drifted in the first test) */
-    MUST(weft_world_get_positions(world, x, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_get_positions(world, x, VERTS, sizeof(WeftVec3), NULL));
     for (i = 0; i < N; ++i) {
         uint32_t ring = (uint32_t)((N - 1) * N + i);
-        MUST(weft_world_set_pin_line(world, ring, x[ring], rail));
+        MUST(weft_world_set_pin_line(world, ring, x[ring], rail, NULL));
     }
     p0 = momentum(world);
     for (i = 0; i < frames; ++i)
-        MUST(weft_world_step(world, DT, NULL));
+        MUST(weft_world_step(world, DT, NULL, NULL));
     p1 = momentum(world);
     along = (p1.x - p0.x) * rail.x + (p1.z - p0.z) * rail.z;
     check(fabsf(along - mass * g * sinf(theta) * DT * (float)frames) <
               2e-3f * mass * g * sinf(theta) * DT * (float)frames,
           "the curtain slides along its rail at g sin(theta)", (double)along);
-    check(weft_world_set_pin_line(world, 0, positions[0], zero) == WEFT_RESULT_INVALID_ARGUMENT,
+    check(weft_world_set_pin_line(world, 0, positions[0], zero, NULL) == WEFT_RESULT_INVALID_ARGUMENT,
           "a rail without a direction is refused", 0.0);
 }
 
@@ -236,21 +236,21 @@ static void ranges_and_teleport(WeftWorld *world)
     int i;
 
     /* the second row, lifted by 1 cm, and read back */
-    MUST(weft_world_get_positions_range(world, N, N, row, sizeof(WeftVec3)));
+    MUST(weft_world_get_positions_range(world, N, N, row, sizeof(WeftVec3), NULL));
     for (i = 0; i < N; ++i)
         row[i].y += 0.01f;
-    MUST(weft_world_set_positions_range(world, N, N, row, sizeof(WeftVec3)));
-    MUST(weft_world_get_positions_range(world, N, N, back, sizeof(WeftVec3)));
+    MUST(weft_world_set_positions_range(world, N, N, row, sizeof(WeftVec3), NULL));
+    MUST(weft_world_get_positions_range(world, N, N, back, sizeof(WeftVec3), NULL));
     check(memcmp(row, back, sizeof row) == 0, "a range of positions round-trips", 0.0);
-    check(weft_world_get_positions_range(world, VERTS - 1, 2, back, sizeof(WeftVec3)) ==
+    check(weft_world_get_positions_range(world, VERTS - 1, 2, back, sizeof(WeftVec3), NULL) ==
               WEFT_RESULT_VERTEX_OUT_OF_RANGE,
           "a range past the last vertex is refused", 0.0);
 
-    MUST(weft_world_get_positions(world, before, VERTS, sizeof(WeftVec3)));
-    MUST(weft_world_get_velocities(world, v0, VERTS, sizeof(WeftVec3)));
-    MUST(weft_world_transform(world, quarter, away, 1));
-    MUST(weft_world_get_positions(world, after, VERTS, sizeof(WeftVec3)));
-    MUST(weft_world_get_velocities(world, v1, VERTS, sizeof(WeftVec3)));
+    MUST(weft_world_get_positions(world, before, VERTS, sizeof(WeftVec3), NULL));
+    MUST(weft_world_get_velocities(world, v0, VERTS, sizeof(WeftVec3), NULL));
+    MUST(weft_world_transform(world, quarter, away, 1, NULL));
+    MUST(weft_world_get_positions(world, after, VERTS, sizeof(WeftVec3), NULL));
+    MUST(weft_world_get_velocities(world, v1, VERTS, sizeof(WeftVec3), NULL));
     for (i = 0; i < VERTS; ++i) {
         speed0 += sqrtf(v0[i].x * v0[i].x + v0[i].y * v0[i].y + v0[i].z * v0[i].z);
         speed1 += sqrtf(v1[i].x * v1[i].x + v1[i].y * v1[i].y + v1[i].z * v1[i].z);
@@ -261,8 +261,8 @@ static void ranges_and_teleport(WeftWorld *world)
           "a teleport turns and moves", (double)after[0].x);
     check(fabsf(speed1 - speed0) < 1e-5f * speed0 && fabsf(v1[5].y - v0[5].x) < 1e-6f,
           "a teleport turns the velocities", (double)speed1);
-    MUST(weft_world_step(world, DT, NULL));
-    check(weft_world_transform(world, quarter, away, 2) == WEFT_RESULT_INVALID_ARGUMENT,
+    MUST(weft_world_step(world, DT, NULL, NULL));
+    check(weft_world_transform(world, quarter, away, 2, NULL) == WEFT_RESULT_INVALID_ARGUMENT,
           "keep_velocity is 0 or 1", 0.0);
 }
 
@@ -275,25 +275,25 @@ static void collider_ids_and_user_data(WeftWorld *world)
     uint32_t a, b, c, d;
 
     def.shape = far_away;
-    MUST(weft_world_add_collider(world, &def, &a));
+    MUST(weft_world_add_collider(world, &def, &a, NULL));
     def.shape = weft_shape_plane((WeftVec3){0.0f, 0.0f, 1.0f}, -5.0f);
-    MUST(weft_world_add_collider(world, &def, &b));
+    MUST(weft_world_add_collider(world, &def, &b, NULL));
     def.shape = far_away;
-    MUST(weft_world_add_collider(world, &def, &c));
-    MUST(weft_world_remove_collider(world, a));
+    MUST(weft_world_add_collider(world, &def, &c, NULL));
+    MUST(weft_world_remove_collider(world, a, NULL));
     check(weft_world_collider_count(world) == 2 &&
-              weft_world_set_collider(world, c, &far_away) == WEFT_RESULT_OK &&
-              weft_world_set_collider(world, b, &far_away) == WEFT_RESULT_OK,
+              weft_world_set_collider(world, c, &far_away, NULL) == WEFT_RESULT_OK &&
+              weft_world_set_collider(world, b, &far_away, NULL) == WEFT_RESULT_OK,
           "the other colliders keep their ids", 0.0);
-    check(weft_world_remove_collider(world, a) == WEFT_RESULT_UNKNOWN_COLLIDER &&
-              weft_world_set_collider(world, a, &far_away) == WEFT_RESULT_UNKNOWN_COLLIDER,
+    check(weft_world_remove_collider(world, a, NULL) == WEFT_RESULT_UNKNOWN_COLLIDER &&
+              weft_world_set_collider(world, a, &far_away, NULL) == WEFT_RESULT_UNKNOWN_COLLIDER,
           "a removed collider's id is refused", (double)a);
-    MUST(weft_world_add_collider(world, &def, &d));
+    MUST(weft_world_add_collider(world, &def, &d, NULL));
     check(d != a && d != b && d != c, "a new collider gets a new id", (double)d);
-    MUST(weft_world_clear_colliders(world));
+    MUST(weft_world_clear_colliders(world, NULL));
 
     check(weft_world_user_data(world) == NULL, "no user data at first", 0.0);
-    MUST(weft_world_set_user_data(world, &owner));
+    MUST(weft_world_set_user_data(world, &owner, NULL));
     check(weft_world_user_data(world) == &owner && *(int *)weft_world_user_data(world) == 42,
           "the world carries the engine's pointer", 0.0);
 }
@@ -331,7 +331,7 @@ int main(int argc, char **argv)
     def.settings.effects = WEFT_EFFECT_WARPING | WEFT_EFFECT_PINS;
     def.settings.tolerance = 1e-6f;
     def.settings.max_iterations = 1000;
-    MUST(weft_world_memory_size(&def.capacity, &memory_size));
+    MUST(weft_world_memory_size(&def.capacity, &memory_size, NULL));
     memory = aligned_alloc(WEFT_WORLD_MEMORY_ALIGN, memory_size);
     if (memory == NULL ||
         weft_world_create(&def, &blob, memory, memory_size, &world, &detail) != WEFT_RESULT_OK) {
@@ -346,7 +346,7 @@ int main(int argc, char **argv)
     ranges_and_teleport(world);
     collider_ids_and_user_data(world);
 
-    MUST(weft_world_destroy(world));
+    MUST(weft_world_destroy(world, NULL));
     free(memory);
     free(bytes);
     printf(failures == 0 ? "engine_api: ok\n" : "engine_api: %d FAILED\n", failures);

@@ -5,7 +5,12 @@
  * Conventions:
  * - Functions are weft_*, types Weft*, constants WEFT_*.
  * - Every fallible call returns a WeftResult (WEFT_RESULT_OK is 0; weft_result_string names any
- *   value). Outputs are written only on success. Every pointer is checked for NULL; enum-like
+ *   value). Outputs are written only on success.
+ * - One error channel: every call that returns a WeftResult takes, as its last argument,
+ *   WeftErrorDetail *out_detail: NULL when the detail is not wanted, otherwise filled on every
+ *   call (result OK and no index on success; on failure which vertex, triangle, field, count or
+ *   capacity is at fault). Nothing is kept between calls, so the detail is always the call's own,
+ *   also for calls that only read a world from several threads. Every pointer is checked for NULL; enum-like
  *   inputs are uint32_t and checked. No call allocates, blocks, or keeps a pointer it was given,
  *   except those documented as borrowed (the blob bytes and the world memory block).
  * - Units: metres, seconds, kilograms; stiffness N/m, areal density kg/m^2.
@@ -20,17 +25,18 @@
  * Life of a cloth:
  *   1. weft_blob_parse(bytes, size, &blob, &detail)                 the cells, borrowed
  *   2. def = weft_default_world_def(); set positions, uvs, indices, counts, material(s)
- *   3. weft_world_memory_size(&def.capacity, &size); memory = aligned_alloc(16, size)
+ *   3. weft_world_memory_size(&def.capacity, &size, NULL); memory = aligned_alloc(16, size)
  *   4. weft_world_create(&def, &blob, memory, size, &world, &detail)
- *   5. per frame: weft_world_set_pin / weft_world_set_collider, weft_world_step(world, dt, &stats),
- *      weft_world_get_positions(world, vertex_buffer, count, stride)
- *   6. weft_world_destroy(world); free(memory); free(bytes)
+ *   5. per frame: weft_world_set_pin / weft_world_set_collider / weft_world_add_forces,
+ *      weft_world_step(world, dt, &stats, &detail),
+ *      weft_world_get_positions(world, vertex_buffer, count, stride, NULL)
+ *   6. weft_world_destroy(world, NULL); free(memory); free(bytes)
  *
  * Localization (the fine pattern put back on the coarse cloth, for rendering):
  *   a. once per render mesh: its (u, v) (your own, or weft_tiled_mesh for the cell's micro
- *      mesh), weft_bind_memory_size(n, &size), bindings = malloc(size),
+ *      mesh), weft_bind_memory_size(n, &size, NULL), bindings = malloc(size),
  *      weft_bind(world, uvs, n, stride, bindings, size, &detail)
- *   b. once: weft_localize_frames_size(world, &fsize); frames = aligned_alloc(16, fsize)
+ *   b. once: weft_localize_frames_size(world, &fsize, NULL); frames = aligned_alloc(16, fsize)
  *   c. per frame, after the step: weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames,
  *      fsize, NULL); out = weft_default_localize_output(), set out.positions (and normals)
  *      and strides; weft_localize(world, frames, bindings, size, first, count, &out, &detail)
@@ -594,9 +600,10 @@ typedef struct WeftBlob {
 } WeftBlob;
 
 /**
- * Where a failure is: filled by `weft_world_create` and `weft_blob_parse` (when their
- * `out_detail` is not NULL) and by `weft_world_last_error_detail`. Which fields apply is said
- * by each `WeftResult` value; the others are `WEFT_NONE` (indices) or "" (`what`).
+ * Where a failure is: written by every call that returns a `WeftResult` to its last argument,
+ * `out_detail`, when that is not NULL (the one error channel; see the top of this header).
+ * Which fields apply is said by each `WeftResult` value; the others are `WEFT_NONE` (indices)
+ * or "" (`what`).
  */
 typedef struct WeftErrorDetail {
     /**
@@ -1087,10 +1094,12 @@ WeftResult weft_blob_parse(const void *data,
  * # Safety
  * `blob` points to a `WeftBlob` filled by `weft_blob_parse` whose bytes are still valid;
  * `out_info` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_blob_cell_info(const struct WeftBlob *blob,
                                uint32_t cell,
-                               struct WeftCellInfo *out_info);
+                               struct WeftCellInfo *out_info,
+                               struct WeftErrorDetail *out_detail);
 
 /**
  * The default capacity: `WEFT_DEFAULT_MAX_*`.
@@ -1141,8 +1150,11 @@ struct WeftShape weft_shape_shell(struct WeftVec3 center, float radius);
  *
  * # Safety
  * `capacity` is readable, `out_size` writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_memory_size(const struct WeftCapacity *capacity, size_t *out_size);
+WeftResult weft_world_memory_size(const struct WeftCapacity *capacity,
+                                  size_t *out_size,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Required alignment (bytes) of a world's memory block: `WEFT_WORLD_MEMORY_ALIGN`.
@@ -1183,18 +1195,9 @@ WeftResult weft_world_create(const struct WeftWorldDef *def,
  * # Safety
  * `world` is NULL or points to readable, writable memory of at least `WEFT_WORLD_HEADER_SIZE`
  * bytes.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_destroy(struct WeftWorld *world);
-
-/**
- * The detail of the last failed call on `world` (calls taking a non-const `WeftWorld*`),
- * or `WEFT_RESULT_OK` with every index `WEFT_NONE` when none has failed.
- *
- * # Safety
- * `world` is a handle from `weft_world_create` (or NULL); `out_detail` is writable.
- */
-WeftResult weft_world_last_error_detail(const struct WeftWorld *world,
-                                        struct WeftErrorDetail *out_detail);
+WeftResult weft_world_destroy(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Advances the cloth by `dt` seconds (finite, > 0) in `settings.substeps` substeps, moving
@@ -1204,17 +1207,23 @@ WeftResult weft_world_last_error_detail(const struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); a non-NULL `out_stats` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_step(struct WeftWorld *world, float dt, struct WeftStepStats *out_stats);
+WeftResult weft_world_step(struct WeftWorld *world,
+                           float dt,
+                           struct WeftStepStats *out_stats,
+                           struct WeftErrorDetail *out_detail);
 
 /**
  * The world's current settings, in `*out_settings`.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_settings` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_settings(const struct WeftWorld *world,
-                                   struct WeftSettings *out_settings);
+                                   struct WeftSettings *out_settings,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Replaces the world's settings (all fields checked; nothing changes on failure). Wakes the
@@ -1222,8 +1231,11 @@ WeftResult weft_world_get_settings(const struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `settings` is readable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_settings(struct WeftWorld *world, const struct WeftSettings *settings);
+WeftResult weft_world_set_settings(struct WeftWorld *world,
+                                   const struct WeftSettings *settings,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Replaces the effect bit set (`WEFT_EFFECT_*`; other bits are `WEFT_RESULT_INVALID_SETTING`).
@@ -1231,8 +1243,11 @@ WeftResult weft_world_set_settings(struct WeftWorld *world, const struct WeftSet
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
+WeftResult weft_world_set_effects(struct WeftWorld *world,
+                                  uint32_t effects,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
@@ -1242,8 +1257,11 @@ WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_solver(struct WeftWorld *world, uint32_t solver);
+WeftResult weft_world_set_solver(struct WeftWorld *world,
+                                 uint32_t solver,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
@@ -1251,8 +1269,11 @@ WeftResult weft_world_set_solver(struct WeftWorld *world, uint32_t solver);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_user_data(struct WeftWorld *world, void *user_data);
+WeftResult weft_world_set_user_data(struct WeftWorld *world,
+                                    void *user_data,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
@@ -1276,8 +1297,9 @@ bool weft_world_is_asleep(const struct WeftWorld *world);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_wake(struct WeftWorld *world);
+WeftResult weft_world_wake(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Number of vertices of the world's cloth (0 for an invalid handle).
@@ -1304,12 +1326,14 @@ uint32_t weft_world_triangle_count(const struct WeftWorld *world);
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
  * `(count - 1) * stride + 4` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_masses(const struct WeftWorld *world,
                                  uint32_t first,
                                  uint32_t count,
                                  void *out,
-                                 size_t stride);
+                                 size_t stride,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
@@ -1320,22 +1344,26 @@ WeftResult weft_world_get_masses(const struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
  * `(vertex_count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_positions(const struct WeftWorld *world,
                                     void *out,
                                     uint32_t count,
-                                    size_t stride);
+                                    size_t stride,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
  *
  * # Safety
  * As `weft_world_get_positions`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_velocities(const struct WeftWorld *world,
                                      void *out,
                                      uint32_t count,
-                                     size_t stride);
+                                     size_t stride,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites every vertex position (metres) from `src`: vertex i's 3 floats at byte
@@ -1346,22 +1374,26 @@ WeftResult weft_world_get_velocities(const struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
  * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_positions(struct WeftWorld *world,
                                     const void *src,
                                     uint32_t count,
-                                    size_t stride);
+                                    size_t stride,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites every vertex velocity (m/s), like `weft_world_set_positions`.
  *
  * # Safety
  * As `weft_world_set_positions`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_velocities(struct WeftWorld *world,
                                      const void *src,
                                      uint32_t count,
-                                     size_t stride);
+                                     size_t stride,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the positions (metres) of vertices `first .. first + count - 1` out: vertex
@@ -1372,12 +1404,14 @@ WeftResult weft_world_set_velocities(struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
  * `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_positions_range(const struct WeftWorld *world,
                                           uint32_t first,
                                           uint32_t count,
                                           void *out,
-                                          size_t stride);
+                                          size_t stride,
+                                          struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
@@ -1385,12 +1419,14 @@ WeftResult weft_world_get_positions_range(const struct WeftWorld *world,
  *
  * # Safety
  * As `weft_world_get_positions_range`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_velocities_range(const struct WeftWorld *world,
                                            uint32_t first,
                                            uint32_t count,
                                            void *out,
-                                           size_t stride);
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites the positions (metres) of vertices `first .. first + count - 1` from `src`
@@ -1401,12 +1437,14 @@ WeftResult weft_world_get_velocities_range(const struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
  * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_positions_range(struct WeftWorld *world,
                                           uint32_t first,
                                           uint32_t count,
                                           const void *src,
-                                          size_t stride);
+                                          size_t stride,
+                                          struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
@@ -1414,12 +1452,14 @@ WeftResult weft_world_set_positions_range(struct WeftWorld *world,
  *
  * # Safety
  * As `weft_world_set_positions_range`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_velocities_range(struct WeftWorld *world,
                                            uint32_t first,
                                            uint32_t count,
                                            const void *src,
-                                           size_t stride);
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
 
 /**
  * Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres),
@@ -1432,11 +1472,13 @@ WeftResult weft_world_set_velocities_range(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_transform(struct WeftWorld *world,
                                 struct WeftQuat rotation,
                                 struct WeftVec3 translation,
-                                uint32_t keep_velocity);
+                                uint32_t keep_velocity,
+                                struct WeftErrorDetail *out_detail);
 
 /**
  * Adds forces (newtons) to vertices `first .. first + count - 1` for the next
@@ -1450,12 +1492,14 @@ WeftResult weft_world_transform(struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
  * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_add_forces(struct WeftWorld *world,
                                  uint32_t first,
                                  uint32_t count,
                                  const void *src,
-                                 size_t stride);
+                                 size_t stride,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
@@ -1465,12 +1509,14 @@ WeftResult weft_world_add_forces(struct WeftWorld *world,
  *
  * # Safety
  * As `weft_world_add_forces`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_add_impulses(struct WeftWorld *world,
                                    uint32_t first,
                                    uint32_t count,
                                    const void *src,
-                                   size_t stride);
+                                   size_t stride,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
@@ -1484,12 +1530,14 @@ WeftResult weft_world_add_impulses(struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
  * `(count - 1) * stride + 4` bytes.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
                                       uint32_t first,
                                       uint32_t count,
                                       const void *src,
-                                      size_t stride);
+                                      size_t stride,
+                                      struct WeftErrorDetail *out_detail);
 
 /**
  * Pins vertex `vertex` to `target` (metres) in every direction, or moves its pin there. The vertex travels to the
@@ -1499,10 +1547,12 @@ WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_pin(struct WeftWorld *world,
                               uint32_t vertex,
-                              struct WeftVec3 target);
+                              struct WeftVec3 target,
+                              struct WeftErrorDetail *out_detail);
 
 /**
  * Pins vertex `vertex` in one direction only: it stays in the plane through `target`
@@ -1513,11 +1563,13 @@ WeftResult weft_world_set_pin(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_pin_plane(struct WeftWorld *world,
                                     uint32_t vertex,
                                     struct WeftVec3 target,
-                                    struct WeftVec3 normal);
+                                    struct WeftVec3 normal,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * Pins vertex `vertex` in the two directions normal to `direction`: it stays on the line
@@ -1526,19 +1578,24 @@ WeftResult weft_world_set_pin_plane(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_pin_line(struct WeftWorld *world,
                                    uint32_t vertex,
                                    struct WeftVec3 target,
-                                   struct WeftVec3 direction);
+                                   struct WeftVec3 direction,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Releases the pin of vertex `vertex` (no error when it had none). Wakes the world.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_remove_pin(struct WeftWorld *world, uint32_t vertex);
+WeftResult weft_world_remove_pin(struct WeftWorld *world,
+                                 uint32_t vertex,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Number of pinned vertices (0 for an invalid handle).
@@ -1557,10 +1614,12 @@ uint32_t weft_world_pin_count(const struct WeftWorld *world);
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `def` is readable; a non-NULL
  * `out_index` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_add_collider(struct WeftWorld *world,
                                    const struct WeftColliderDef *def,
-                                   uint32_t *out_index);
+                                   uint32_t *out_index,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (same or another
@@ -1570,10 +1629,12 @@ WeftResult weft_world_add_collider(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `shape` is readable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_collider(struct WeftWorld *world,
                                    uint32_t index,
-                                   const struct WeftShape *shape);
+                                   const struct WeftShape *shape,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
@@ -1582,16 +1643,20 @@ WeftResult weft_world_set_collider(struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_remove_collider(struct WeftWorld *world, uint32_t id);
+WeftResult weft_world_remove_collider(struct WeftWorld *world,
+                                      uint32_t id,
+                                      struct WeftErrorDetail *out_detail);
 
 /**
  * Removes every collider (their ids are not given again). Wakes the world.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_clear_colliders(struct WeftWorld *world);
+WeftResult weft_world_clear_colliders(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Number of colliders (0 for an invalid handle).
@@ -1614,8 +1679,11 @@ struct WeftLocalizeOutput weft_default_localize_output(void);
  *
  * # Safety
  * `out_size` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_bind_memory_size(uint32_t fine_vertex_count, size_t *out_size);
+WeftResult weft_bind_memory_size(uint32_t fine_vertex_count,
+                                 size_t *out_size,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Binds a fine render mesh to the world's coarse cloth, once per mesh: for each fine vertex,
@@ -1662,8 +1730,12 @@ WeftResult weft_bind(const struct WeftWorld *world,
  *
  * # Safety
  * `bindings` is readable for `bindings_size` bytes; `out_count` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_bind_vertex_count(const void *bindings, size_t bindings_size, uint32_t *out_count);
+WeftResult weft_bind_vertex_count(const void *bindings,
+                                  size_t bindings_size,
+                                  uint32_t *out_count,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
@@ -1672,8 +1744,11 @@ WeftResult weft_bind_vertex_count(const void *bindings, size_t bindings_size, ui
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_localize_frames_size(const struct WeftWorld *world, size_t *out_size);
+WeftResult weft_localize_frames_size(const struct WeftWorld *world,
+                                     size_t *out_size,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
  * Once per frame, after the step and before `weft_localize`: measures the coarse cloth's

@@ -12,7 +12,23 @@ use crate::collide::Collider;
 use crate::strided::Strided;
 use crate::world::{EditError, PinAxes, World};
 
-/// Every vertex's 3 floats out, `count` ≥ the vertex count (`COUNT_MISMATCH` otherwise).
+/// The vertex count for a whole-cloth call: `count` must be at least it (outputs) or equal to
+/// it (`exact`, inputs); `COUNT_MISMATCH` otherwise, `detail.needed` the vertex count.
+///
+/// # Safety
+/// `world` as [`world_at`].
+unsafe fn whole_cloth(world: *const WeftWorld, count: u32, exact: bool) -> FfiResult<u32> {
+    // SAFETY: forwarded contract.
+    let n = count32(unsafe { world_at(world) }?.world.vertex_count());
+    if count < n || (exact && count != n) {
+        let mut f = fault(WeftResult::CountMismatch).what(c"count");
+        f.needed = n;
+        return Err(f);
+    }
+    Ok(n)
+}
+
+/// Every vertex's 3 floats out (see [`whole_cloth`]).
 ///
 /// # Safety
 /// `out` writable for the strided extent; `world` as [`world_at`].
@@ -22,17 +38,12 @@ unsafe fn get_vec3s(
     count: u32,
     stride: usize,
     value: fn(&World<'static>, usize) -> Option<[f32; 3]>,
-) -> WeftResult {
+) -> FfiResult<()> {
     // SAFETY: forwarded contract.
-    let n = match unsafe { world_at(world) } {
-        Ok(w) => w.world.vertex_count(),
-        Err(d) => return d.result,
-    };
-    if (count as usize) < n {
-        return WeftResult::CountMismatch;
+    unsafe {
+        let n = whole_cloth(world, count, false)?;
+        get_range(world, 0, n, out, stride, value)
     }
-    // SAFETY: forwarded contract.
-    unsafe { get_range(world, 0, count32(n), out, stride, value) }
 }
 
 /// Copies `count` per-vertex values of vertices `first..first + count` out: vertex
@@ -48,8 +59,8 @@ unsafe fn get_range<const N: usize>(
     out: *mut c_void,
     stride: usize,
     value: fn(&World<'static>, usize) -> Option<[f32; N]>,
-) -> WeftResult {
-    done((|| {
+) -> FfiResult<()> {
+    (|| {
         // SAFETY: forwarded contract.
         let w = unsafe { world_at(world) }?;
         let n = w.world.vertex_count();
@@ -65,7 +76,7 @@ unsafe fn get_range<const N: usize>(
             out.set(k, value(&w.world, first + k).unwrap_or([0.0; N]));
         }
         Ok(())
-    })())
+    })()
 }
 
 /// Copies the masses (kg) of vertices `first .. first + count - 1` out: vertex `first + k`'s
@@ -76,6 +87,7 @@ unsafe fn get_range<const N: usize>(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
 /// `(count - 1) * stride + 4` bytes and does not overlap the world's memory block.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_masses(
     world: *const WeftWorld,
@@ -83,13 +95,18 @@ pub unsafe extern "C" fn weft_world_get_masses(
     count: u32,
     out: *mut c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        get_range(world, first, count, out, stride, |w, i| {
-            w.masses().get(i).map(|&m| [m])
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            get_range(world, first, count, out, stride, |w, i| {
+                w.masses().get(i).map(|&m| [m])
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
@@ -100,38 +117,50 @@ pub unsafe extern "C" fn weft_world_get_masses(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
 /// `(vertex_count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_positions(
     world: *const WeftWorld,
     out: *mut c_void,
     count: u32,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        get_vec3s(world, out, count, stride, |w, i| {
-            w.positions().get(i).map(|p| p.to_array())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            get_vec3s(world, out, count, stride, |w, i| {
+                w.positions().get(i).map(|p| p.to_array())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
 ///
 /// # Safety
 /// As `weft_world_get_positions`.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_velocities(
     world: *const WeftWorld,
     out: *mut c_void,
     count: u32,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        get_vec3s(world, out, count, stride, |w, i| {
-            w.velocities().get(i).map(|v| v.to_array())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            get_vec3s(world, out, count, stride, |w, i| {
+                w.velocities().get(i).map(|v| v.to_array())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// An edit of the world from `count` groups of `N` floats at `src` (`stride` bytes apart) for
@@ -149,7 +178,7 @@ unsafe fn edit_range<const N: usize>(
     stride: usize,
     what: &'static CStr,
     edit: for<'w> fn(&mut World<'static>, usize, &Strided<'w, N>) -> Result<(), EditError>,
-) -> WeftResult {
+) -> FfiResult<()> {
     // SAFETY: forwarded contract.
     unsafe {
         with_world(world, |w| {
@@ -183,19 +212,9 @@ unsafe fn set_vec3s(
     count: u32,
     stride: usize,
     velocities: bool,
-) -> WeftResult {
+) -> FfiResult<()> {
     // SAFETY: forwarded contract.
-    let n = unsafe { world_at(world) }.map_or(0, |w| w.world.vertex_count());
-    if count as usize != n {
-        // SAFETY: forwarded contract.
-        return unsafe {
-            with_world(world, |_| {
-                let mut f = fault(WeftResult::CountMismatch).what(c"count");
-                f.needed = n as u32;
-                Err(f)
-            })
-        };
-    }
+    unsafe { whole_cloth(world, count, true) }?;
     // SAFETY: forwarded contract.
     unsafe {
         if velocities {
@@ -224,30 +243,42 @@ unsafe fn set_vec3s(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
 /// `(count - 1) * stride + 12` bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_positions(
     world: *mut WeftWorld,
     src: *const c_void,
     count: u32,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe { set_vec3s(world, src, count, stride, false) }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe { set_vec3s(world, src, count, stride, false) }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Overwrites every vertex velocity (m/s), like `weft_world_set_positions`.
 ///
 /// # Safety
 /// As `weft_world_set_positions`.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_velocities(
     world: *mut WeftWorld,
     src: *const c_void,
     count: u32,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe { set_vec3s(world, src, count, stride, true) }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe { set_vec3s(world, src, count, stride, true) }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Copies the positions (metres) of vertices `first .. first + count - 1` out: vertex
@@ -258,6 +289,7 @@ pub unsafe extern "C" fn weft_world_set_velocities(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
 /// `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_positions_range(
     world: *const WeftWorld,
@@ -265,13 +297,18 @@ pub unsafe extern "C" fn weft_world_get_positions_range(
     count: u32,
     out: *mut c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        get_range(world, first, count, out, stride, |w, i| {
-            w.positions().get(i).map(|p| p.to_array())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            get_range(world, first, count, out, stride, |w, i| {
+                w.positions().get(i).map(|p| p.to_array())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
@@ -279,6 +316,7 @@ pub unsafe extern "C" fn weft_world_get_positions_range(
 ///
 /// # Safety
 /// As `weft_world_get_positions_range`.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_velocities_range(
     world: *const WeftWorld,
@@ -286,13 +324,18 @@ pub unsafe extern "C" fn weft_world_get_velocities_range(
     count: u32,
     out: *mut c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        get_range(world, first, count, out, stride, |w, i| {
-            w.velocities().get(i).map(|v| v.to_array())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            get_range(world, first, count, out, stride, |w, i| {
+                w.velocities().get(i).map(|v| v.to_array())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Overwrites the positions (metres) of vertices `first .. first + count - 1` from `src`
@@ -303,6 +346,7 @@ pub unsafe extern "C" fn weft_world_get_velocities_range(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
 /// `(count - 1) * stride + 12` bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_positions_range(
     world: *mut WeftWorld,
@@ -310,19 +354,24 @@ pub unsafe extern "C" fn weft_world_set_positions_range(
     count: u32,
     src: *const c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        edit_range(
-            world,
-            first,
-            count,
-            src,
-            stride,
-            c"positions",
-            World::set_positions_range,
-        )
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            edit_range(
+                world,
+                first,
+                count,
+                src,
+                stride,
+                c"positions",
+                World::set_positions_range,
+            )
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
@@ -330,6 +379,7 @@ pub unsafe extern "C" fn weft_world_set_positions_range(
 ///
 /// # Safety
 /// As `weft_world_set_positions_range`.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_velocities_range(
     world: *mut WeftWorld,
@@ -337,19 +387,24 @@ pub unsafe extern "C" fn weft_world_set_velocities_range(
     count: u32,
     src: *const c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        edit_range(
-            world,
-            first,
-            count,
-            src,
-            stride,
-            c"velocities",
-            World::set_velocities_range,
-        )
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            edit_range(
+                world,
+                first,
+                count,
+                src,
+                stride,
+                c"velocities",
+                World::set_velocities_range,
+            )
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres),
@@ -362,30 +417,36 @@ pub unsafe extern "C" fn weft_world_set_velocities_range(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_transform(
     world: *mut WeftWorld,
     rotation: WeftQuat,
     translation: WeftVec3,
     keep_velocity: u32,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let keep = match keep_velocity {
-                0 => false,
-                1 => true,
-                _ => return Err(invalid(c"keep_velocity")),
-            };
-            let q = Quat::from_xyzw(rotation.x, rotation.y, rotation.z, rotation.w);
-            w.world
-                .transform(q, vec3(translation), keep)
-                .map_err(|e| match e {
-                    EditError::NonFinite => fault(WeftResult::NonFinite).what(c"transform"),
-                    e => edit_fault(e, &w.world),
-                })
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let keep = match keep_velocity {
+                    0 => false,
+                    1 => true,
+                    _ => return Err(invalid(c"keep_velocity")),
+                };
+                let q = Quat::from_xyzw(rotation.x, rotation.y, rotation.z, rotation.w);
+                w.world
+                    .transform(q, vec3(translation), keep)
+                    .map_err(|e| match e {
+                        EditError::NonFinite => fault(WeftResult::NonFinite).what(c"transform"),
+                        e => edit_fault(e, &w.world),
+                    })
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Adds forces (newtons) to vertices `first .. first + count - 1` for the next
@@ -399,6 +460,7 @@ pub unsafe extern "C" fn weft_world_transform(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
 /// `(count - 1) * stride + 12` bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_add_forces(
     world: *mut WeftWorld,
@@ -406,19 +468,24 @@ pub unsafe extern "C" fn weft_world_add_forces(
     count: u32,
     src: *const c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        edit_range(
-            world,
-            first,
-            count,
-            src,
-            stride,
-            c"forces",
-            World::add_forces,
-        )
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            edit_range(
+                world,
+                first,
+                count,
+                src,
+                stride,
+                c"forces",
+                World::add_forces,
+            )
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
@@ -428,6 +495,7 @@ pub unsafe extern "C" fn weft_world_add_forces(
 ///
 /// # Safety
 /// As `weft_world_add_forces`.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_add_impulses(
     world: *mut WeftWorld,
@@ -435,19 +503,24 @@ pub unsafe extern "C" fn weft_world_add_impulses(
     count: u32,
     src: *const c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        edit_range(
-            world,
-            first,
-            count,
-            src,
-            stride,
-            c"impulses",
-            World::add_impulses,
-        )
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            edit_range(
+                world,
+                first,
+                count,
+                src,
+                stride,
+                c"impulses",
+                World::add_impulses,
+            )
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
@@ -461,6 +534,7 @@ pub unsafe extern "C" fn weft_world_add_impulses(
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
 /// `(count - 1) * stride + 4` bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_mass_scales(
     world: *mut WeftWorld,
@@ -468,19 +542,24 @@ pub unsafe extern "C" fn weft_world_set_mass_scales(
     count: u32,
     src: *const c_void,
     stride: usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        edit_range(
-            world,
-            first,
-            count,
-            src,
-            stride,
-            c"scales",
-            World::set_mass_scales,
-        )
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            edit_range(
+                world,
+                first,
+                count,
+                src,
+                stride,
+                c"scales",
+                World::set_mass_scales,
+            )
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Pins vertex `vertex` to `target` (metres) in every direction, or moves its pin there. The vertex travels to the
@@ -490,23 +569,29 @@ pub unsafe extern "C" fn weft_world_set_mass_scales(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_pin(
     world: *mut WeftWorld,
     vertex: u32,
     target: WeftVec3,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            if !vec3(target).iter().all(|c| c.is_finite()) {
-                return Err(fault(WeftResult::NonFinite).what(c"target").vertex(vertex));
-            }
-            w.world
-                .set_pin(vertex, vec3(target))
-                .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                if !vec3(target).iter().all(|c| c.is_finite()) {
+                    return Err(fault(WeftResult::NonFinite).what(c"target").vertex(vertex));
+                }
+                w.world
+                    .set_pin(vertex, vec3(target))
+                    .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// # Safety
@@ -517,7 +602,7 @@ unsafe fn set_pin_axes(
     target: WeftVec3,
     axes: PinAxes,
     axis: WeftVec3,
-) -> WeftResult {
+) -> FfiResult<()> {
     // SAFETY: forwarded contract.
     unsafe {
         with_world(world, |w| {
@@ -542,18 +627,24 @@ unsafe fn set_pin_axes(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_pin_plane(
     world: *mut WeftWorld,
     vertex: u32,
     target: WeftVec3,
     normal: WeftVec3,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let axes = PinAxes::Plane {
-        normal: vec3(normal),
+    let r: FfiResult<()> = {
+        let axes = PinAxes::Plane {
+            normal: vec3(normal),
+        };
+        // SAFETY: forwarded contract.
+        unsafe { set_pin_axes(world, vertex, target, axes, normal) }
     };
-    // SAFETY: forwarded contract.
-    unsafe { set_pin_axes(world, vertex, target, axes, normal) }
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Pins vertex `vertex` in the two directions normal to `direction`: it stays on the line
@@ -562,34 +653,49 @@ pub unsafe extern "C" fn weft_world_set_pin_plane(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_pin_line(
     world: *mut WeftWorld,
     vertex: u32,
     target: WeftVec3,
     direction: WeftVec3,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let axes = PinAxes::Line {
-        direction: vec3(direction),
+    let r: FfiResult<()> = {
+        let axes = PinAxes::Line {
+            direction: vec3(direction),
+        };
+        // SAFETY: forwarded contract.
+        unsafe { set_pin_axes(world, vertex, target, axes, direction) }
     };
-    // SAFETY: forwarded contract.
-    unsafe { set_pin_axes(world, vertex, target, axes, direction) }
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Releases the pin of vertex `vertex` (no error when it had none). Wakes the world.
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_remove_pin(world: *mut WeftWorld, vertex: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            w.world
-                .remove_pin(vertex)
-                .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
-        })
-    }
+pub unsafe extern "C" fn weft_world_remove_pin(
+    world: *mut WeftWorld,
+    vertex: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                w.world
+                    .remove_pin(vertex)
+                    .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Number of pinned vertices (0 for an invalid handle).
@@ -610,37 +716,43 @@ pub unsafe extern "C" fn weft_world_pin_count(world: *const WeftWorld) -> u32 {
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `def` is readable; a non-NULL
 /// `out_index` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_add_collider(
     world: *mut WeftWorld,
     def: *const WeftColliderDef,
     out_index: *mut u32,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let d = read_ref(def, c"def")?;
-            if d.internal_cookie != COLLIDER_DEF_COOKIE {
-                return Err(fault(WeftResult::Uninitialized).what(c"def"));
-            }
-            if !out_index.is_null() && !out_index.is_aligned() {
-                return Err(fault(WeftResult::Misaligned).what(c"out_index"));
-            }
-            let shape = shape_from_c(&d.shape)?;
-            if !(d.friction.is_finite() && d.friction >= 0.0) {
-                return Err(fault(WeftResult::InvalidCollider).what(c"friction"));
-            }
-            if !(d.thickness.is_finite() && d.thickness >= 0.0) {
-                return Err(fault(WeftResult::InvalidCollider).what(c"thickness"));
-            }
-            let index = w
-                .world
-                .add_collider(Collider::new(shape, d.friction, d.thickness))
-                .map_err(|e| edit_fault(e, &w.world))?;
-            write_opt(out_index, index);
-            Ok(())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let d = read_ref(def, c"def")?;
+                if d.internal_cookie != COLLIDER_DEF_COOKIE {
+                    return Err(fault(WeftResult::Uninitialized).what(c"def"));
+                }
+                if !out_index.is_null() && !out_index.is_aligned() {
+                    return Err(fault(WeftResult::Misaligned).what(c"out_index"));
+                }
+                let shape = shape_from_c(&d.shape)?;
+                if !(d.friction.is_finite() && d.friction >= 0.0) {
+                    return Err(fault(WeftResult::InvalidCollider).what(c"friction"));
+                }
+                if !(d.thickness.is_finite() && d.thickness >= 0.0) {
+                    return Err(fault(WeftResult::InvalidCollider).what(c"thickness"));
+                }
+                let index = w
+                    .world
+                    .add_collider(Collider::new(shape, d.friction, d.thickness))
+                    .map_err(|e| edit_fault(e, &w.world))?;
+                write_opt(out_index, index);
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (same or another
@@ -650,21 +762,27 @@ pub unsafe extern "C" fn weft_world_add_collider(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `shape` is readable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_collider(
     world: *mut WeftWorld,
     index: u32,
     shape: *const WeftShape,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let s = shape_from_c(read_ref(shape, c"shape")?)?;
-            w.world
-                .set_collider_shape(index, s)
-                .map_err(|e| edit_fault(e, &w.world).index(index))
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let s = shape_from_c(read_ref(shape, c"shape")?)?;
+                w.world
+                    .set_collider_shape(index, s)
+                    .map_err(|e| edit_fault(e, &w.world).index(index))
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
@@ -673,31 +791,48 @@ pub unsafe extern "C" fn weft_world_set_collider(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_remove_collider(world: *mut WeftWorld, id: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            w.world
-                .remove_collider(id)
-                .map_err(|e| edit_fault(e, &w.world).index(id))
-        })
-    }
+pub unsafe extern "C" fn weft_world_remove_collider(
+    world: *mut WeftWorld,
+    id: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                w.world
+                    .remove_collider(id)
+                    .map_err(|e| edit_fault(e, &w.world).index(id))
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Removes every collider (their ids are not given again). Wakes the world.
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_clear_colliders(world: *mut WeftWorld) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            w.world.clear_colliders();
-            Ok(())
-        })
-    }
+pub unsafe extern "C" fn weft_world_clear_colliders(
+    world: *mut WeftWorld,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                w.world.clear_colliders();
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Number of colliders (0 for an invalid handle).

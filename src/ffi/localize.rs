@@ -123,19 +123,25 @@ pub extern "C" fn weft_default_localize_output() -> WeftLocalizeOutput {
 ///
 /// # Safety
 /// `out_size` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_bind_memory_size(
     fine_vertex_count: u32,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        let out = out_ptr(out_size, c"out_size")?;
-        let size = blocks::bindings_bytes(fine_vertex_count as usize)
-            .ok_or(fault(WeftResult::CapacityTooLarge))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(size) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            let out = out_ptr(out_size, c"out_size")?;
+            let size = blocks::bindings_bytes(fine_vertex_count as usize)
+                .ok_or(fault(WeftResult::CapacityTooLarge))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(size) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Binds a fine render mesh to the world's coarse cloth, once per mesh: for each fine vertex,
@@ -205,20 +211,26 @@ pub unsafe extern "C" fn weft_bind(
 ///
 /// # Safety
 /// `bindings` is readable for `bindings_size` bytes; `out_count` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_bind_vertex_count(
     bindings: *const c_void,
     bindings_size: usize,
     out_count: *mut u32,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        let out = out_ptr(out_count, c"out_count")?;
-        // SAFETY: forwarded contract.
-        let (_, records) = unsafe { bindings_block(bindings, bindings_size) }?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(count32(records.len())) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            let out = out_ptr(out_count, c"out_count")?;
+            // SAFETY: forwarded contract.
+            let (_, records) = unsafe { bindings_block(bindings, bindings_size) }?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(count32(records.len())) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
@@ -227,21 +239,27 @@ pub unsafe extern "C" fn weft_bind_vertex_count(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_localize_frames_size(
     world: *const WeftWorld,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_size, c"out_size")?;
-        let size =
-            blocks::frames_bytes(w.world.vertex_count()).ok_or(fault(WeftResult::Internal))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(size) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_at(world) }?;
+            let out = out_ptr(out_size, c"out_size")?;
+            let size =
+                blocks::frames_bytes(w.world.vertex_count()).ok_or(fault(WeftResult::Internal))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(size) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Once per frame, after the step and before `weft_localize`: measures the coarse cloth's

@@ -178,9 +178,10 @@ pub enum WeftResult {
     TiledMeshCapacity = 92,
 }
 
-/// Where a failure is: filled by `weft_world_create` and `weft_blob_parse` (when their
-/// `out_detail` is not NULL) and by `weft_world_last_error_detail`. Which fields apply is said
-/// by each `WeftResult` value; the others are `WEFT_NONE` (indices) or "" (`what`).
+/// Where a failure is: written by every call that returns a `WeftResult` to its last argument,
+/// `out_detail`, when that is not NULL (the one error channel; see the top of this header).
+/// Which fields apply is said by each `WeftResult` value; the others are `WEFT_NONE` (indices)
+/// or "" (`what`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeftErrorDetail {

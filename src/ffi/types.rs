@@ -2,7 +2,6 @@
 
 use core::ffi::{c_char, c_void};
 
-use super::result::WeftErrorDetail;
 use crate::blob::Blob;
 use crate::world::World;
 
@@ -298,8 +297,6 @@ pub struct WeftWorld {
     /// Key of the cloth (mesh, rest (u, v), materials, blob) that bindings and frames carry
     /// (`localize::blocks::cloth_key`, computed once at create).
     pub(super) cloth_key: u64,
-    /// The last failure of a call that took this world mutably.
-    pub(super) last_error: WeftErrorDetail,
     /// The engine's pointer (`weft_world_set_user_data`); never read by weft.
     pub(super) user_data: *mut c_void,
 }

@@ -147,20 +147,27 @@ fn block_layout(c: &Capacity) -> Option<BlockLayout> {
 ///
 /// # Safety
 /// `capacity` is readable, `out_size` writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_memory_size(
     capacity: *const WeftCapacity,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: readable per the contract.
-        let c = unsafe { read_ref(capacity, c"capacity") }?;
-        let out = out_ptr(out_size, c"out_size")?;
-        let layout = block_layout(&capacity_of(c)).ok_or(fault(WeftResult::CapacityTooLarge))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(layout.total) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: readable per the contract.
+            let c = unsafe { read_ref(capacity, c"capacity") }?;
+            let out = out_ptr(out_size, c"out_size")?;
+            let layout =
+                block_layout(&capacity_of(c)).ok_or(fault(WeftResult::CapacityTooLarge))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(layout.total) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Required alignment (bytes) of a world's memory block: `WEFT_WORLD_MEMORY_ALIGN`.
@@ -316,7 +323,6 @@ unsafe fn create(
             world,
             blob: parsed,
             cloth_key,
-            last_error: WeftErrorDetail::of(R::Ok),
             user_data: core::ptr::null_mut(),
         });
         out.write(handle);
@@ -331,34 +337,22 @@ unsafe fn create(
 /// # Safety
 /// `world` is NULL or points to readable, writable memory of at least `WEFT_WORLD_HEADER_SIZE`
 /// bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_destroy(world: *mut WeftWorld) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_mut(world) }?;
-        w.cookie = 0;
-        Ok(())
-    })())
-}
-
-/// The detail of the last failed call on `world` (calls taking a non-const `WeftWorld*`),
-/// or `WEFT_RESULT_OK` with every index `WEFT_NONE` when none has failed.
-///
-/// # Safety
-/// `world` is a handle from `weft_world_create` (or NULL); `out_detail` is writable.
-#[no_mangle]
-pub unsafe extern "C" fn weft_world_last_error_detail(
-    world: *const WeftWorld,
+pub unsafe extern "C" fn weft_world_destroy(
+    world: *mut WeftWorld,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_detail, c"out_detail")?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(w.last_error) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_mut(world) }?;
+            w.cookie = 0;
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Advances the cloth by `dt` seconds (finite, > 0) in `settings.substeps` substeps, moving
@@ -368,42 +362,54 @@ pub unsafe extern "C" fn weft_world_last_error_detail(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); a non-NULL `out_stats` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_step(
     world: *mut WeftWorld,
     dt: f32,
     out_stats: *mut WeftStepStats,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            if !out_stats.is_null() && !out_stats.is_aligned() {
-                return Err(fault(WeftResult::Misaligned).what(c"out_stats"));
-            }
-            let stats = w.world.step_dt(dt).map_err(step_fault)?;
-            write_opt(out_stats, stats_to_c(&stats));
-            Ok(())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                if !out_stats.is_null() && !out_stats.is_aligned() {
+                    return Err(fault(WeftResult::Misaligned).what(c"out_stats"));
+                }
+                let stats = w.world.step_dt(dt).map_err(step_fault)?;
+                write_opt(out_stats, stats_to_c(&stats));
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// The world's current settings, in `*out_settings`.
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out_settings` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_settings(
     world: *const WeftWorld,
     out_settings: *mut WeftSettings,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_settings, c"out_settings")?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(settings_to_c(w.world.settings())) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_at(world) }?;
+            let out = out_ptr(out_settings, c"out_settings")?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(settings_to_c(w.world.settings())) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Replaces the world's settings (all fields checked; nothing changes on failure). Wakes the
@@ -411,19 +417,25 @@ pub unsafe extern "C" fn weft_world_get_settings(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `settings` is readable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_settings(
     world: *mut WeftWorld,
     settings: *const WeftSettings,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let s = read_ref(settings, c"settings")?;
-            let s = settings_from_c(s, w.world.settings())?;
-            w.world.set_settings(s).map_err(init_fault)
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let s = read_ref(settings, c"settings")?;
+                let s = settings_from_c(s, w.world.settings())?;
+                w.world.set_settings(s).map_err(init_fault)
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Replaces the effect bit set (`WEFT_EFFECT_*`; other bits are `WEFT_RESULT_INVALID_SETTING`).
@@ -431,18 +443,27 @@ pub unsafe extern "C" fn weft_world_set_settings(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_set_effects(world: *mut WeftWorld, effects: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let s = Settings {
-                effects,
-                ..*w.world.settings()
-            };
-            w.world.set_settings(s).map_err(init_fault)
-        })
-    }
+pub unsafe extern "C" fn weft_world_set_effects(
+    world: *mut WeftWorld,
+    effects: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let s = Settings {
+                    effects,
+                    ..*w.world.settings()
+                };
+                w.world.set_settings(s).map_err(init_fault)
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
@@ -452,20 +473,29 @@ pub unsafe extern "C" fn weft_world_set_effects(world: *mut WeftWorld, effects: 
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_set_solver(world: *mut WeftWorld, solver: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            let solver = match solver {
-                WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
-                WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
-                _ => return Err(invalid(c"solver")),
-            };
-            w.world.set_solver(solver);
-            Ok(())
-        })
-    }
+pub unsafe extern "C" fn weft_world_set_solver(
+    world: *mut WeftWorld,
+    solver: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                let solver = match solver {
+                    WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
+                    WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
+                    _ => return Err(invalid(c"solver")),
+                };
+                w.world.set_solver(solver);
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
@@ -473,18 +503,24 @@ pub unsafe extern "C" fn weft_world_set_solver(world: *mut WeftWorld, solver: u3
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_user_data(
     world: *mut WeftWorld,
     user_data: *mut c_void,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            w.user_data = user_data;
-            Ok(())
-        })
-    }
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                w.user_data = user_data;
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
@@ -512,15 +548,23 @@ pub unsafe extern "C" fn weft_world_is_asleep(world: *const WeftWorld) -> bool {
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_wake(world: *mut WeftWorld) -> WeftResult {
-    // SAFETY: forwarded contract.
-    unsafe {
-        with_world(world, |w| {
-            w.world.wake();
-            Ok(())
-        })
-    }
+pub unsafe extern "C" fn weft_world_wake(
+    world: *mut WeftWorld,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r: FfiResult<()> = {
+        // SAFETY: forwarded contract.
+        unsafe {
+            with_world(world, |w| {
+                w.world.wake();
+                Ok(())
+            })
+        }
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Number of vertices of the world's cloth (0 for an invalid handle).
