@@ -6,6 +6,7 @@
  * - a curtain on rings that slide along an inclined rail (pins that hold some directions);
  * - a range of vertices in and out, and a rigid teleport that keeps the shape and motion;
  * - colliders removed one at a time by id, and the engine's pointer on the world;
+ * - per-triangle strain read back (for tearing or shading);
  *
  *   cc -std=c11 -I include c_examples/engine_api.c target/ship/libweft.a -o engine_api
  *   ./engine_api cells.weft
@@ -298,6 +299,32 @@ static void collider_ids_and_user_data(WeftWorld *world)
           "the world carries the engine's pointer", 0.0);
 }
 
+/* The sheet stretched by 10 % along u: every triangle's Green strain is [0.105, 0, 0]. */
+static void strain_read_back(WeftWorld *world)
+{
+    static WeftVec3 stretched[VERTS];
+    static float strain[TRIS][3];
+    WeftErrorDetail d;
+    float worst = 0.0f;
+    int i;
+    for (i = 0; i < VERTS; ++i) {
+        stretched[i] = positions[i];
+        stretched[i].x *= 1.1f;
+    }
+    MUST(weft_world_set_positions(world, stretched, VERTS, sizeof(WeftVec3), NULL));
+    MUST(weft_world_get_triangle_strains(world, 0, TRIS, strain, sizeof strain[0], NULL));
+    for (i = 0; i < TRIS; ++i) {
+        float e = fabsf(strain[i][0] - 0.105f) + fabsf(strain[i][1]) + fabsf(strain[i][2]);
+        if (e > worst)
+            worst = e;
+    }
+    check(worst < 1e-5f, "a 10 % stretch along u reads back as E11 = 0.105", (double)strain[0][0]);
+    check(weft_world_get_triangle_strains(world, TRIS - 1, 2, strain, sizeof strain[0], &d) ==
+                  WEFT_RESULT_TRIANGLE_OUT_OF_RANGE &&
+              d.needed == TRIS,
+          "strains past the last triangle are refused", 0.0);
+}
+
 int main(int argc, char **argv)
 {
     WeftErrorDetail detail;
@@ -345,6 +372,7 @@ int main(int argc, char **argv)
     curtain_on_a_rail(world);
     ranges_and_teleport(world);
     collider_ids_and_user_data(world);
+    strain_read_back(world);
 
     MUST(weft_world_destroy(world, NULL));
     free(memory);

@@ -446,7 +446,8 @@ enum WeftResult
      */
     WEFT_RESULT_BLOB_CELL_OUT_OF_RANGE = 57,
     /**
-     * Vertex `detail.vertex` is ≥ the world's vertex count.
+     * Vertex `detail.vertex` is ≥ the world's vertex count (for a range, the last vertex
+     * asked for, and `detail.needed` the vertex count).
      */
     WEFT_RESULT_VERTEX_OUT_OF_RANGE = 60,
     /**
@@ -486,6 +487,10 @@ enum WeftResult
      * beyond f32 resolution. The world kept the state it had before the step.
      */
     WEFT_RESULT_UNSTABLE = 68,
+    /**
+     * A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
+     */
+    WEFT_RESULT_TRIANGLE_OUT_OF_RANGE = 69,
     /**
      * `weft_bind`: fine vertex `detail.vertex` lies outside the coarse cloth's (u, v) layout
      * (beyond a relative tolerance of 1e-5), or its (u, v) is NaN or infinite.
@@ -1334,6 +1339,27 @@ WeftResult weft_world_get_masses(const struct WeftWorld *world,
                                  void *out,
                                  size_t stride,
                                  struct WeftErrorDetail *out_detail);
+
+/**
+ * Copies the Green strain of triangles `first .. first + count - 1` out, for tearing or
+ * shading: triangle `first + k`'s 3 floats `[E11, E22, 2 E12]` to byte `k * stride` of `out`
+ * (written unaligned, `stride` ≥ 12). `E = (FᵀF - I) / 2`, `F` the map from the triangle's
+ * rest (u, v) to its current positions, so the axes are the cloth's u and v (Voigt order
+ * [11, 22, 12], engineering shear) and a rigid motion gives 0. The stretch ratio along u is
+ * `sqrt(1 + 2 E11)`, along v `sqrt(1 + 2 E22)`. A range past the last triangle is
+ * `WEFT_RESULT_TRIANGLE_OUT_OF_RANGE` (`detail.needed` the triangle count) and writes nothing.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_get_triangle_strains(const struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           void *out,
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte

@@ -229,6 +229,8 @@ fn engine_api_c() {
             "the other colliders keep their ids: ok",
             "a removed collider's id is refused: ok",
             "the world carries the engine's pointer: ok",
+            "a 10 % stretch along u reads back as E11 = 0.105: ok",
+            "strains past the last triangle are refused: ok",
             "engine_api: ok",
         ],
     );

@@ -565,3 +565,54 @@ fn collider_ids_survive_the_removal_of_others() {
     );
     assert_eq!(w.collider_ids(), &[c, b][..]);
 }
+
+/// A homogeneous deformation `x = R A (u, v)` (a 2×2 stretch-and-shear `A`, then any rotation
+/// `R` into 3D) has Green strain `E = ½(AᵀA − I)` in every triangle, read back in Voigt order
+/// `[E11, E22, 2 E12]`; a triangle listed in reverse order measures the same.
+#[test]
+fn triangle_strains_are_the_green_strain_of_the_deformation() {
+    use weft::strided::StridedMut;
+    let mat = [anisotropic()];
+    let mut sheet = Sheet::grid(5, 4, 0.4, 0.3);
+    let a = [[1.05f32, 0.03], [-0.02, 0.96]];
+    let r = glam::Mat3A::from_quat(glam::Quat::from_euler(glam::EulerRot::XYZ, 0.7, -0.3, 1.1));
+    for (p, uv) in sheet.positions.iter_mut().zip(&sheet.uvs) {
+        let (u, v) = (uv[0], uv[1]);
+        let planar = Vec3A::new(a[0][0] * u + a[0][1] * v, a[1][0] * u + a[1][1] * v, 0.0);
+        *p = (r * planar + Vec3A::new(0.3, -2.0, 1.0)).to_array();
+    }
+    // one triangle reversed
+    sheet.triangles[5].swap(1, 2);
+    let mut mem = memory(&sheet.capacity());
+    let w = world(&mut mem, &sheet, &mat, free_settings());
+    // AᵀA columns: A's columns a1 = (1.05, −0.02), a2 = (0.03, 0.96)
+    let (a1, a2) = (
+        glam::Vec2::new(a[0][0], a[1][0]),
+        glam::Vec2::new(a[0][1], a[1][1]),
+    );
+    let expected = [
+        0.5 * (a1.length_squared() - 1.0),
+        0.5 * (a2.length_squared() - 1.0),
+        a1.dot(a2),
+    ];
+    let nt = w.triangle_count();
+    let mut out = vec![[0.0f32; 3]; nt];
+    w.triangle_strains(0, &mut StridedMut::from_slice(&mut out))
+        .unwrap();
+    for e in &out {
+        for (got, want) in e.iter().zip(expected) {
+            assert!((got - want).abs() < 2e-6, "{e:?} vs {expected:?}");
+        }
+    }
+    // a range, and one past the end
+    let mut two = [[9.0f32; 3]; 2];
+    w.triangle_strains(nt - 2, &mut StridedMut::from_slice(&mut two))
+        .unwrap();
+    assert_eq!(two, [out[nt - 2], out[nt - 1]]);
+    assert_eq!(
+        w.triangle_strains(nt - 1, &mut StridedMut::from_slice(&mut two)),
+        Err(EditError::TriangleOutOfRange)
+    );
+    // the stretch ratio along u
+    assert!(((1.0 + 2.0 * out[0][0]).sqrt() - a1.length()).abs() < 1e-6);
+}

@@ -109,6 +109,46 @@ pub unsafe extern "C" fn weft_world_get_masses(
     unsafe { detailed(out_detail, r) }
 }
 
+/// Copies the Green strain of triangles `first .. first + count - 1` out, for tearing or
+/// shading: triangle `first + k`'s 3 floats `[E11, E22, 2 E12]` to byte `k * stride` of `out`
+/// (written unaligned, `stride` ≥ 12). `E = (FᵀF - I) / 2`, `F` the map from the triangle's
+/// rest (u, v) to its current positions, so the axes are the cloth's u and v (Voigt order
+/// [11, 22, 12], engineering shear) and a rigid motion gives 0. The stretch ratio along u is
+/// `sqrt(1 + 2 E11)`, along v `sqrt(1 + 2 E22)`. A range past the last triangle is
+/// `WEFT_RESULT_TRIANGLE_OUT_OF_RANGE` (`detail.needed` the triangle count) and writes nothing.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+/// `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+/// A non-NULL `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_get_triangle_strains(
+    world: *const WeftWorld,
+    first: u32,
+    count: u32,
+    out: *mut c_void,
+    stride: usize,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r = (|| {
+        // SAFETY: forwarded contract.
+        let w = unsafe { world_at(world) }?;
+        let nt = w.world.triangle_count();
+        if (first as usize).saturating_add(count as usize) > nt {
+            let mut f = fault(WeftResult::TriangleOutOfRange).what(c"first + count");
+            f.needed = count32(nt);
+            return Err(f);
+        }
+        // SAFETY: writable for the extent per the contract, disjoint from the world.
+        let mut out = unsafe { strided_out::<3>(out, count as usize, stride, c"out", c"stride") }?;
+        w.world
+            .triangle_strains(first as usize, &mut out)
+            .map_err(|e| edit_fault(e, &w.world))
+    })();
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
+}
+
 /// Copies the world's vertex positions (metres) out: vertex i's 3 floats to byte
 /// `i * stride` of `out`, written unaligned (so straight into an interleaved vertex buffer).
 /// `count` is the capacity of `out` in vertices, ≥ `weft_world_vertex_count`; exactly that

@@ -111,7 +111,8 @@ pub enum WeftResult {
     /// `weft_blob_cell_info` was asked for a cell ≥ the blob's cell count (`detail.cell`).
     BlobCellOutOfRange = 57,
 
-    /// Vertex `detail.vertex` is ≥ the world's vertex count.
+    /// Vertex `detail.vertex` is ≥ the world's vertex count (for a range, the last vertex
+    /// asked for, and `detail.needed` the vertex count).
     VertexOutOfRange = 60,
     /// No collider has the id `detail.index`: it was never added, or it was removed.
     UnknownCollider = 61,
@@ -134,6 +135,8 @@ pub enum WeftResult {
     /// wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
     /// beyond f32 resolution. The world kept the state it had before the step.
     Unstable = 68,
+    /// A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
+    TriangleOutOfRange = 69,
 
     /// `weft_bind`: fine vertex `detail.vertex` lies outside the coarse cloth's (u, v) layout
     /// (beyond a relative tolerance of 1e-5), or its (u, v) is NaN or infinite.
@@ -323,6 +326,7 @@ fn message(result: WeftResult) -> &'static CStr {
         R::BlobInvalidCell => c"blob cell holds invalid data",
         R::BlobCellOutOfRange => c"blob cell index out of range",
         R::VertexOutOfRange => c"vertex index out of range",
+        R::TriangleOutOfRange => c"triangle range out of range",
         R::UnknownCollider => c"no collider has that id (never added, or removed)",
         R::InvalidCollider => c"invalid collider",
         R::NonFinite => c"value not finite",
@@ -446,6 +450,7 @@ pub(super) fn edit_fault(e: EditError, w: &World<'_>) -> Fault {
         EditError::InvalidMassScale { vertex } => invalid(c"scales").vertex(vertex),
         EditError::InvalidAxis => invalid(c"axis"),
         EditError::InvalidRotation => invalid(c"rotation"),
+        EditError::TriangleOutOfRange => fault(R::TriangleOutOfRange),
     }
 }
 

@@ -118,6 +118,8 @@ pub enum EditError {
     NonFinite,
     PinCapacity,
     ColliderCapacity,
+    /// A triangle range reaches past the last triangle.
+    TriangleOutOfRange,
     /// No collider has that id (never added, or removed).
     UnknownCollider,
     InvalidCollider,
@@ -202,6 +204,7 @@ impl fmt::Display for EditError {
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
             EditError::InvalidMassScale { .. } => "invalid mass scale",
             EditError::InvalidAxis => "a pin's normal or direction is zero or not finite",
+            EditError::TriangleOutOfRange => "triangle index or count out of range",
             EditError::InvalidRotation => "the rotation quaternion has zero length",
         })
     }

@@ -32,7 +32,7 @@ use crate::mesh;
 use crate::multigrid;
 use crate::normals;
 use crate::step::{self, monitor};
-use crate::strided::Strided;
+use crate::strided::{Strided, StridedMut};
 
 /// A material as the world uses it: stiffness (C^H for a coarse cloth, the pixel's own C for
 /// the fine reference), areal density and bending stiffness.
@@ -423,6 +423,42 @@ impl<'a> World<'a> {
         prefix_mut(a.contact, n).fill(mesh::NONE);
         self.refresh_frames(8);
         self.wake();
+        Ok(())
+    }
+
+    // ----- read-back -----
+
+    /// The Green strain `E = ½(FᵀF − I)` of triangles `first..first + out.count()`, in the
+    /// triangle's material frame (the cloth's (u, v) axes), Voigt `[E11, E22, 2 E12]` with
+    /// engineering shear: `F` maps the triangle's rest (u, v) to its current positions. Whatever
+    /// the step's strain measure, this is the Green strain. The stretch along u is
+    /// `sqrt(1 + 2 E11)` (along v likewise; 1 at rest), the thing to threshold for tearing.
+    pub fn triangle_strains(
+        &self,
+        first: usize,
+        out: &mut StridedMut<'_, 3>,
+    ) -> Result<(), EditError> {
+        let end = first
+            .checked_add(out.count())
+            .filter(|&end| end <= self.nt)
+            .ok_or(EditError::TriangleOutOfRange)?;
+        let (triangles, elements) = (
+            self.a.triangles.get(first..end),
+            self.a.elements.get(first..end),
+        );
+        let (Some(triangles), Some(elements)) = (triangles, elements) else {
+            return Err(EditError::TriangleOutOfRange);
+        };
+        let x = self.positions();
+        for (k, (tri, element)) in triangles.iter().zip(elements).enumerate() {
+            let corner = |c: usize| {
+                let i = tri.get(c).copied().unwrap_or(0) as usize;
+                x.get(i).copied().unwrap_or(Vec3A::ZERO) // (corners are < n)
+            };
+            let (e, _, _) =
+                element.measure([corner(0), corner(1), corner(2)], membrane::Strain::Green);
+            out.set(k, e);
+        }
         Ok(())
     }
 
