@@ -602,6 +602,10 @@ typedef struct WeftBlob {
      * Set by `weft_blob_parse`; do not touch.
      */
     uint32_t internal_cookie;
+    /**
+     * Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+     */
+    uint32_t reserved;
 } WeftBlob;
 
 /**
@@ -647,6 +651,10 @@ typedef struct WeftErrorDetail {
      * The capacity that was too small.
      */
     uint32_t capacity;
+    /**
+     * Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+     */
+    uint32_t reserved;
     /**
      * A static, NUL-terminated string naming the argument, field or check; never NULL, owned
      * by the library.
@@ -941,18 +949,18 @@ typedef struct WeftStepStats {
      */
     float residual;
     /**
-     * Every substep's solve reached `settings.tolerance` (false: it stopped at
+     * 1 when every substep's solve reached `settings.tolerance` (0: it stopped at
      * `max_iterations`; the step is still valid, only less accurate).
      */
-    bool converged;
+    uint32_t converged;
     /**
      * Substeps taken (0 when asleep).
      */
     uint32_t substeps;
     /**
-     * The world was asleep and did nothing.
+     * 1 when the world was asleep and did nothing, else 0.
      */
-    bool asleep;
+    uint32_t asleep;
     /**
      * Vertices in contact with a collider at the end of the step.
      */
@@ -1019,11 +1027,6 @@ typedef struct WeftLocalizeOutput {
      */
     size_t normal_stride;
     /**
-     * `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
-     * `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
-     */
-    uint32_t normal_mode;
-    /**
      * `WEFT_NORMALS_RECOMPUTED` only: the fine triangles, 3 × `fine_triangle_count` tightly
      * packed `uint32_t` (4-aligned) indices *relative to this call's range* (index k is
      * binding `first + k`, so every index is < `count`). Counter-clockwise in (u, v), as
@@ -1035,6 +1038,11 @@ typedef struct WeftLocalizeOutput {
      */
     const uint32_t *fine_indices;
     /**
+     * `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
+     * `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
+     */
+    uint32_t normal_mode;
+    /**
      * Number of triangles at `fine_indices`. Default 0.
      */
     uint32_t fine_triangle_count;
@@ -1042,6 +1050,10 @@ typedef struct WeftLocalizeOutput {
      * Set by `weft_default_localize_output`; do not touch.
      */
     uint32_t internal_cookie;
+    /**
+     * Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+     */
+    uint32_t reserved;
 } WeftLocalizeOutput;
 
 /**

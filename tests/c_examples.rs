@@ -526,7 +526,8 @@ fn c_layout_matches_rust() {
         size,
         version,
         cell_count,
-        internal_cookie
+        internal_cookie,
+        reserved
     });
     layout!(WeftCellInfo {
         name,
@@ -552,10 +553,11 @@ fn c_layout_matches_rust() {
         position_stride,
         normals,
         normal_stride,
-        normal_mode,
         fine_indices,
+        normal_mode,
         fine_triangle_count,
-        internal_cookie
+        internal_cookie,
+        reserved
     });
     layout!(WeftStepStats {
         iterations,
@@ -577,6 +579,7 @@ fn c_layout_matches_rust() {
         index,
         needed,
         capacity,
+        reserved,
         what
     });
     checks += &format!(

@@ -33,6 +33,7 @@ pub unsafe extern "C" fn weft_blob_parse(
             version: 0,
             cell_count: 0,
             internal_cookie: BLOB_COOKIE,
+            reserved: 0,
         };
         // SAFETY: readability of data[..size] is the caller's contract.
         let blob = unsafe { reparse(&b) }?;

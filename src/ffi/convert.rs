@@ -233,9 +233,9 @@ pub(super) fn stats_to_c(s: &StepStats) -> WeftStepStats {
     WeftStepStats {
         iterations: s.iterations,
         residual: s.residual,
-        converged: s.converged,
+        converged: s.converged.into(),
         substeps: s.substeps,
-        asleep: s.asleep,
+        asleep: s.asleep.into(),
         contacts: s.contacts,
         redone: s.redone,
         energy_removed: s.energy_removed,

@@ -114,6 +114,7 @@ pub extern "C" fn weft_default_localize_output() -> WeftLocalizeOutput {
         fine_indices: ptr::null(),
         fine_triangle_count: 0,
         internal_cookie: LOCALIZE_OUTPUT_COOKIE,
+        reserved: 0,
     }
 }
 

@@ -46,6 +46,8 @@ mod edit;
 
 mod localize;
 
+mod layout;
+
 pub use blob::*;
 pub use edit::*;
 pub use localize::*;

@@ -206,6 +206,8 @@ pub struct WeftErrorDetail {
     pub needed: u32,
     /// The capacity that was too small.
     pub capacity: u32,
+    /// Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+    pub reserved: u32,
     /// A static, NUL-terminated string naming the argument, field or check; never NULL, owned
     /// by the library.
     pub what: *const c_char,
@@ -223,6 +225,7 @@ impl WeftErrorDetail {
             index: WEFT_NONE,
             needed: WEFT_NONE,
             capacity: WEFT_NONE,
+            reserved: 0,
             what: EMPTY.as_ptr(),
         }
     }

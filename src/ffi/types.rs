@@ -158,6 +158,8 @@ pub struct WeftBlob {
     pub cell_count: u32,
     /// Set by `weft_blob_parse`; do not touch.
     pub internal_cookie: u32,
+    /// Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+    pub reserved: u32,
 }
 
 /// What a blob cell is, for tools and logs (`weft_blob_cell_info`).
@@ -228,13 +230,13 @@ pub struct WeftStepStats {
     pub iterations: u32,
     /// Largest final relative residual over substeps.
     pub residual: f32,
-    /// Every substep's solve reached `settings.tolerance` (false: it stopped at
+    /// 1 when every substep's solve reached `settings.tolerance` (0: it stopped at
     /// `max_iterations`; the step is still valid, only less accurate).
-    pub converged: bool,
+    pub converged: u32,
     /// Substeps taken (0 when asleep).
     pub substeps: u32,
-    /// The world was asleep and did nothing.
-    pub asleep: bool,
+    /// 1 when the world was asleep and did nothing, else 0.
+    pub asleep: u32,
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
     /// Times the step was redone with twice the substeps because its end state held energy
@@ -263,9 +265,6 @@ pub struct WeftLocalizeOutput {
     pub normals: *mut c_void,
     /// Bytes from one normal to the next, ≥ 12. Default 12.
     pub normal_stride: usize,
-    /// `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
-    /// `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
-    pub normal_mode: u32,
     /// `WEFT_NORMALS_RECOMPUTED` only: the fine triangles, 3 × `fine_triangle_count` tightly
     /// packed `uint32_t` (4-aligned) indices *relative to this call's range* (index k is
     /// binding `first + k`, so every index is < `count`). Counter-clockwise in (u, v), as
@@ -275,10 +274,15 @@ pub struct WeftLocalizeOutput {
     /// every triangle around a vertex: localize the whole mesh in one call, or give each range
     /// the triangles of its vertices. Default NULL.
     pub fine_indices: *const u32,
+    /// `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
+    /// `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
+    pub normal_mode: u32,
     /// Number of triangles at `fine_indices`. Default 0.
     pub fine_triangle_count: u32,
     /// Set by `weft_default_localize_output`; do not touch.
     pub internal_cookie: u32,
+    /// Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+    pub reserved: u32,
 }
 
 /// A world: an opaque handle that points to the start of the memory block given to
