@@ -7,6 +7,7 @@
  * - a range of vertices in and out, and a rigid teleport that keeps the shape and motion;
  * - colliders removed one at a time by id, and the engine's pointer on the world;
  * - per-triangle strain read back (for tearing or shading);
+ * - a cloth that could never step ((u, v) in the wrong units) refused at create;
  *
  *   cc -std=c11 -I include c_examples/engine_api.c target/ship/libweft.a -o engine_api
  *   ./engine_api cells.weft
@@ -360,6 +361,21 @@ int main(int argc, char **argv)
     def.settings.max_iterations = 1000;
     MUST(weft_world_memory_size(&def.capacity, &memory_size, NULL));
     memory = aligned_alloc(WEFT_WORLD_MEMORY_ALIGN, memory_size);
+    if (memory != NULL) {
+        /* (u, v) in the wrong units (1e-15 of the positions'): a cloth that could never step */
+        static WeftVec2 tiny[VERTS];
+        int i;
+        for (i = 0; i < VERTS; ++i) {
+            tiny[i].x = uvs[i].x * 1e-15f;
+            tiny[i].y = uvs[i].y * 1e-15f;
+        }
+        def.uvs = tiny;
+        check(weft_world_create(&def, &blob, memory, memory_size, &world, &detail) ==
+                      WEFT_RESULT_MESH_STRAIN_OUT_OF_RANGE &&
+                  detail.triangle == 0,
+              "a cloth that could never step is refused", 0.0);
+        def.uvs = uvs;
+    }
     if (memory == NULL ||
         weft_world_create(&def, &blob, memory, memory_size, &world, &detail) != WEFT_RESULT_OK) {
         fprintf(stderr, "cannot create the world: %s\n", weft_result_string(detail.result));

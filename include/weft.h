@@ -410,6 +410,12 @@ enum WeftResult
      */
     WEFT_RESULT_MESH_UV_OUT_OF_RANGE = 42,
     /**
+     * The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
+     * elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
+     * positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+     */
+    WEFT_RESULT_MESH_STRAIN_OUT_OF_RANGE = 43,
+    /**
      * The blob is shorter than its header, or than the size its header announces, or longer
      * (`detail.what` says which): a truncated or padded file.
      */

@@ -616,3 +616,49 @@ fn triangle_strains_are_the_green_strain_of_the_deformation() {
     // the stretch ratio along u
     assert!(((1.0 + 2.0 * out[0][0]).sqrt() - a1.length()).abs() < 1e-6);
 }
+
+/// A cloth that can never step is refused at init: (u, v) scaled down against positions in
+/// metres stretch every triangle until its elastic force overflows `f32` (from a scale of 1e-9
+/// on this sheet), and then every step would fail with `SolverBreakdown` (a failed step keeps
+/// its state). Down to the last scale whose forces fit, the cloth is accepted and steps.
+#[test]
+fn a_cloth_that_can_never_step_is_refused_at_init() {
+    use weft::world::{InitError, Materials, StepError};
+    let mat = [anisotropic()];
+    for (scale, refused) in [(1e-8f32, false), (1e-9, true), (1e-15, true)] {
+        let mut sheet = hanging_sheet(8, 0.5);
+        for uv in &mut sheet.uvs {
+            *uv = [uv[0] * scale, uv[1] * scale];
+        }
+        let mut mem = memory(&sheet.capacity());
+        let r = World::new(
+            &mut mem,
+            sheet.capacity(),
+            &sheet.def(),
+            Materials::Table(&mat),
+            Settings::default(),
+        );
+        match r {
+            Err(e) => {
+                assert!(refused, "{scale:e}: {e:?}");
+                assert_eq!(e, InitError::StrainOutOfRange { triangle: 0 });
+            }
+            Ok(mut w) => {
+                assert!(!refused, "{scale:e} accepted");
+                assert_ne!(w.step().err(), Some(StepError::SolverBreakdown));
+            }
+        }
+    }
+    // the same mistake the other way round: positions 1e10 times too large
+    let mut sheet = hanging_sheet(8, 0.5);
+    sheet.transform(|p| p.map(|c| c * 1e10));
+    let mut mem = memory(&sheet.capacity());
+    let r = World::new(
+        &mut mem,
+        sheet.capacity(),
+        &sheet.def(),
+        Materials::Table(&mat),
+        Settings::default(),
+    );
+    assert_eq!(r.err(), Some(InitError::StrainOutOfRange { triangle: 0 }));
+}

@@ -89,6 +89,10 @@ pub enum WeftResult {
     /// Triangle `detail.triangle` is so large or so small in (u, v) that its area or mass does
     /// not fit a 32-bit float.
     MeshUvOutOfRange = 42,
+    /// The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
+    /// elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
+    /// positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+    MeshStrainOutOfRange = 43,
 
     /// The blob is shorter than its header, or than the size its header announces, or longer
     /// (`detail.what` says which): a truncated or padded file.
@@ -320,6 +324,9 @@ fn message(result: WeftResult) -> &'static CStr {
         R::InvalidSetting => c"setting out of range",
         R::MeshUnusedVertex => c"a vertex belongs to no triangle",
         R::MeshUvOutOfRange => c"a triangle's (u, v) size does not fit a 32-bit float",
+        R::MeshStrainOutOfRange => {
+            c"a triangle is stretched from its (u, v) beyond what a 32-bit float holds"
+        }
         R::BlobSize => c"blob size does not match its header",
         R::BlobBadMagic => c"not a weft cell blob",
         R::BlobVersion => c"unsupported blob version",
@@ -423,6 +430,9 @@ pub(super) fn init_fault(e: InitError) -> Fault {
             f
         }
         InitError::InvalidSetting { field } => fault(R::InvalidSetting).what(setting_name(field)),
+        InitError::StrainOutOfRange { triangle } => {
+            fault(R::MeshStrainOutOfRange).triangle(triangle)
+        }
         InitError::Internal => fault(R::Internal),
     }
 }

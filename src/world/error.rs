@@ -37,6 +37,12 @@ pub enum InitError {
     InvalidSetting {
         field: &'static str,
     },
+    /// The initial positions stretch triangle `triangle`'s rest (u, v) so far that its elastic
+    /// force does not fit `f32`: every step would fail. Usually (u, v) and positions in
+    /// different units.
+    StrainOutOfRange {
+        triangle: u32,
+    },
     /// An internal consistency check failed (a bug if it happens; never a panic).
     Internal,
 }
@@ -166,6 +172,11 @@ impl fmt::Display for InitError {
                 )
             }
             InitError::InvalidSetting { field } => write!(f, "setting `{field}` is out of range"),
+            InitError::StrainOutOfRange { triangle } => write!(
+                f,
+                "triangle {triangle} is stretched so far from its (u, v) that its force is beyond \
+                 f32: the cloth could never step"
+            ),
             InitError::Internal => f.write_str("internal consistency check failed"),
         }
     }
