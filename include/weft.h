@@ -204,14 +204,22 @@
  * split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
  * (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
  * problem's linear solution; use this one unless you want the paper verbatim. (The coarse step
- * itself measures Green strain; the two agree to first order.)
+ * itself measures Green strain; the two agree to first order.) Either measure takes one
+ * strain per coarse triangle (blended to its vertices): where the macro strain varies across
+ * a triangle (e.g. a stiff laminate hanging under its own weight, strain rising by `S ρ g` per
+ * metre up the cloth, `S` the compliance along the pull, `ρ` the areal density) a layer's
+ * strain is off by up to `± S ρ g t / 2` for a triangle `t` metres tall: refine the coarse
+ * cloth where that matters.
  */
 #define WEFT_STRAIN_COROTATED 0
 
 /**
  * `strain_measure` of `weft_localize_prepare`: the paper verbatim, Green strain (FᵀF - I)/2
- * (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order;
- * overshoots the micro fluctuation slightly under stretch.
+ * (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order
+ * only: under stretch it overshoots the micro fluctuation, and the stiff layers' small strain
+ * comes out far too small — by 7 % at 1 % stretch and 14 % at 2 % across a 10:1 laminate
+ * (tests/localize.rs), and by 62 % on the hard layer at 1 % stretch of a stiffer laminate (an
+ * outside measurement). Use it only to reproduce the paper.
  */
 #define WEFT_STRAIN_GREEN 1
 
@@ -227,7 +235,8 @@
 
 /**
  * `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
- * vertex normals (smooth, cheap: about 1.3 × the cost of positions alone).
+ * vertex normals (smooth; about 1.8 × the cost of positions alone: 1.72 × measured by
+ * `examples/bench_localize.rs`, 1.84 × by an outside client).
  */
 #define WEFT_NORMALS_BLENDED 0
 
@@ -866,8 +875,10 @@ typedef struct WeftWorldDef {
     uint32_t triangle_count;
     /**
      * Triangle vertex indices, 3 × `triangle_count` tightly packed `uint32_t` (4-aligned).
-     * Orientation is free but must be consistent across the sheet. NULL only when
-     * `triangle_count` is 0.
+     * Orientation (index order) is free, triangle by triangle: weft orients every triangle by
+     * its (u, v) layout, so a triangle listed in either order simulates identically. What must
+     * hold is that the (u, v) layout does not fold over itself
+     * (`WEFT_RESULT_MESH_FOLDED_UV`). NULL only when `triangle_count` is 0.
      */
     const uint32_t *indices;
     /**
@@ -1838,8 +1849,9 @@ WeftResult weft_localize_prepare(const struct WeftWorld *world,
  * - `out_detail`: NULL, or filled on every call.
  *
  * Everything is checked before anything is written: on failure no output byte changed.
- * Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
- * core), about 1.3 × that with blended normals, about 6 × with recomputed normals.
+ * Cost per fine vertex: a few ns for positions (about 110 M vertices/s on one core of a
+ * 2-core cloud machine, `examples/bench_localize.rs`), about 1.8 × that with blended normals
+ * (1.72 × measured there, 1.84 × by an outside client), about 6 × with recomputed normals.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `frames` a block given to

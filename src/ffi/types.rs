@@ -126,8 +126,10 @@ pub struct WeftWorldDef {
     /// Number of triangles, ≤ `capacity.max_triangles`. Default 0 (must be set).
     pub triangle_count: u32,
     /// Triangle vertex indices, 3 × `triangle_count` tightly packed `uint32_t` (4-aligned).
-    /// Orientation is free but must be consistent across the sheet. NULL only when
-    /// `triangle_count` is 0.
+    /// Orientation (index order) is free, triangle by triangle: weft orients every triangle by
+    /// its (u, v) layout, so a triangle listed in either order simulates identically. What must
+    /// hold is that the (u, v) layout does not fold over itself
+    /// (`WEFT_RESULT_MESH_FOLDED_UV`). NULL only when `triangle_count` is 0.
     pub indices: *const u32,
     /// Per-triangle material: the index of a cell in the blob, `triangle_count` tightly packed
     /// `uint32_t` (4-aligned). NULL: every triangle uses `material`. Default NULL.
