@@ -954,6 +954,20 @@ typedef struct WeftColliderDef {
 } WeftColliderDef;
 
 /**
+ * A 2D vector: material coordinates (u, v) in metres. 8 bytes, no padding.
+ */
+typedef struct WeftVec2 {
+    /**
+     * u, metres.
+     */
+    float x;
+    /**
+     * v, metres.
+     */
+    float y;
+} WeftVec2;
+
+/**
  * What one `weft_world_step` did.
  */
 typedef struct WeftStepStats {
@@ -1073,20 +1087,6 @@ typedef struct WeftLocalizeOutput {
     uint32_t reserved;
 } WeftLocalizeOutput;
 
-/**
- * A 2D vector: material coordinates (u, v) in metres. 8 bytes, no padding.
- */
-typedef struct WeftVec2 {
-    /**
-     * u, metres.
-     */
-    float x;
-    /**
-     * v, metres.
-     */
-    float y;
-} WeftVec2;
-
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -1177,6 +1177,30 @@ struct WeftShape weft_shape_capsule(struct WeftVec3 a, struct WeftVec3 b, float 
  * container, or a shrinking sphere that crumples the cloth).
  */
 struct WeftShape weft_shape_shell(struct WeftVec3 center, float radius);
+
+/**
+ * Fills caller buffers with a regular grid cloth, the quickest way to a first cloth:
+ * `columns × rows` vertices (both ≥ 2) spanning `width × height` metres (finite, > 0), vertex
+ * `j * columns + i` at `(u, v) = (width * i / (columns - 1), height * j / (rows - 1))`,
+ * written both as its position `(u, v, 0)` (flat at z = 0; move or rotate it as you like)
+ * and as its (u, v); each square split into two triangles along its lower-left to
+ * upper-right diagonal, `6 * (columns - 1) * (rows - 1)` indices in all. Hand the buffers to
+ * a `WeftWorldDef` with `vertex_count = columns * rows` and
+ * `triangle_count = 2 * (columns - 1) * (rows - 1)`.
+ *
+ * # Safety
+ * `positions` is writable for `columns * rows` `WeftVec3`, `uvs` for as many `WeftVec2`,
+ * `indices` for `6 * (columns - 1) * (rows - 1)` `uint32_t`; none overlap.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_grid(uint32_t columns,
+                     uint32_t rows,
+                     float width,
+                     float height,
+                     struct WeftVec3 *positions,
+                     struct WeftVec2 *uvs,
+                     uint32_t *indices,
+                     struct WeftErrorDetail *out_detail);
 
 /**
  * Bytes a world of `*capacity` needs (header and arrays), a multiple of

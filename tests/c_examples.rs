@@ -239,6 +239,37 @@ fn engine_api_c() {
     assert!(!out.contains("WRONG") && !out.contains("FAILED"), "{out}");
 }
 
+/// The README's hanging cloth: at most 40 lines of C, the same text in the README as in
+/// `c_examples/hanging.c`, compiled and run like every example; the cloth hangs below its
+/// pinned top edge.
+#[test]
+fn readme_hanging_c() {
+    let source = std::fs::read_to_string(root().join("c_examples").join("hanging.c")).unwrap();
+    assert!(
+        source.lines().count() <= 40,
+        "{} lines",
+        source.lines().count()
+    );
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    assert!(
+        readme.contains(&format!("```c\n{source}```")),
+        "the README's hanging cloth differs from c_examples/hanging.c"
+    );
+    let out = run_everywhere(
+        "hanging.c",
+        &[],
+        &["hanging: the bottom corners are at z = "],
+    );
+    print!("{out}");
+    let z = numbers_after(&out, "hanging: the bottom corners are at z = ");
+    assert_eq!(z.len(), 2, "{out}");
+    assert!(z.iter().all(|&z| z < -0.2), "the cloth hangs: {z:?}");
+    assert!(
+        (z[0] - z[1]).abs() < 0.01,
+        "nearly symmetric (the diagonals are not): {z:?}"
+    );
+}
+
 #[test]
 fn engine_loop_c() {
     let obj = work_dir("engine_loop").join("last_frame.obj");

@@ -6,7 +6,7 @@ use core::mem::size_of;
 use core::ptr;
 
 use super::convert::*;
-use super::result::{fault, init_fault, invalid, null, step_fault, FfiResult};
+use super::result::{fault, init_fault, invalid, mesh_fault, null, step_fault, FfiResult};
 use super::types::*;
 use super::*;
 use crate::localize::blocks;
@@ -140,6 +140,73 @@ fn block_layout(c: &Capacity) -> Option<BlockLayout> {
         .checked_add(align)?
         & !align;
     (total <= isize::MAX as usize).then_some(BlockLayout { world_bytes, total })
+}
+
+/// Fills caller buffers with a regular grid cloth, the quickest way to a first cloth:
+/// `columns × rows` vertices (both ≥ 2) spanning `width × height` metres (finite, > 0), vertex
+/// `j * columns + i` at `(u, v) = (width * i / (columns - 1), height * j / (rows - 1))`,
+/// written both as its position `(u, v, 0)` (flat at z = 0; move or rotate it as you like)
+/// and as its (u, v); each square split into two triangles along its lower-left to
+/// upper-right diagonal, `6 * (columns - 1) * (rows - 1)` indices in all. Hand the buffers to
+/// a `WeftWorldDef` with `vertex_count = columns * rows` and
+/// `triangle_count = 2 * (columns - 1) * (rows - 1)`.
+///
+/// # Safety
+/// `positions` is writable for `columns * rows` `WeftVec3`, `uvs` for as many `WeftVec2`,
+/// `indices` for `6 * (columns - 1) * (rows - 1)` `uint32_t`; none overlap.
+/// A non-NULL `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_grid(
+    columns: u32,
+    rows: u32,
+    width: f32,
+    height: f32,
+    positions: *mut WeftVec3,
+    uvs: *mut WeftVec2,
+    indices: *mut u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r = (|| {
+        if columns < 2 {
+            return Err(invalid(c"columns"));
+        }
+        if rows < 2 {
+            return Err(invalid(c"rows"));
+        }
+        if !(width.is_finite() && width > 0.0) {
+            return Err(invalid(c"width"));
+        }
+        if !(height.is_finite() && height > 0.0) {
+            return Err(invalid(c"height"));
+        }
+        let (nx, ny) = (columns as usize, rows as usize);
+        // (every vertex index must fit a uint32_t, and every count an isize)
+        let nv = columns
+            .checked_mul(rows)
+            .ok_or(invalid(c"columns * rows"))? as usize;
+        let nt = (nx - 1)
+            .checked_mul(ny - 1)
+            .and_then(|s| s.checked_mul(2))
+            .filter(|&nt| nt.checked_mul(12).is_some_and(|b| b <= isize::MAX as usize))
+            .ok_or(invalid(c"columns * rows"))?;
+        let positions = out_ptr(positions, c"positions")?;
+        let uvs = out_ptr(uvs, c"uvs")?;
+        let indices = out_ptr(indices, c"indices")?;
+        // SAFETY: non-NULL and aligned (checked), writable for these counts and disjoint per
+        // the contract; WeftVec3 / WeftVec2 are 3 / 2 f32 with no padding, as [f32; 3] / [f32; 2]
+        // (src/ffi/layout.rs), and a triangle is 3 packed u32.
+        let (positions, uvs, triangles) = unsafe {
+            (
+                core::slice::from_raw_parts_mut(positions.cast::<[f32; 3]>(), nv),
+                core::slice::from_raw_parts_mut(uvs.cast::<[f32; 2]>(), nv),
+                core::slice::from_raw_parts_mut(indices.cast::<[u32; 3]>(), nt),
+            )
+        };
+        crate::mesh::grid(nx, ny, width, height, positions, uvs, triangles).map_err(mesh_fault)?;
+        Ok(())
+    })();
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Bytes a world of `*capacity` needs (header and arrays), a multiple of
