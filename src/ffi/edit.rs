@@ -97,16 +97,15 @@ pub unsafe extern "C" fn weft_world_get_masses(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             get_range(world, first, count, out, stride, |w, i| {
                 w.masses().get(i).map(|&m| [m])
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Copies the Green strain of triangles `first .. first + count - 1` out, for tearing or
@@ -166,16 +165,15 @@ pub unsafe extern "C" fn weft_world_get_positions(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             get_vec3s(world, out, count, stride, |w, i| {
                 w.positions().get(i).map(|p| p.to_array())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
@@ -191,16 +189,15 @@ pub unsafe extern "C" fn weft_world_get_velocities(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             get_vec3s(world, out, count, stride, |w, i| {
                 w.velocities().get(i).map(|v| v.to_array())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// An edit of the world from `count` groups of `N` floats at `src` (`stride` bytes apart) for
@@ -292,12 +289,8 @@ pub unsafe extern "C" fn weft_world_set_positions(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe { set_vec3s(world, src, count, stride, false) }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe { detailed(out_detail, set_vec3s(world, src, count, stride, false)) }
 }
 
 /// Overwrites every vertex velocity (m/s), like `weft_world_set_positions`.
@@ -313,12 +306,8 @@ pub unsafe extern "C" fn weft_world_set_velocities(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe { set_vec3s(world, src, count, stride, true) }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe { detailed(out_detail, set_vec3s(world, src, count, stride, true)) }
 }
 
 /// Copies the positions (metres) of vertices `first .. first + count - 1` out: vertex
@@ -339,16 +328,15 @@ pub unsafe extern "C" fn weft_world_get_positions_range(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             get_range(world, first, count, out, stride, |w, i| {
                 w.positions().get(i).map(|p| p.to_array())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
@@ -366,16 +354,15 @@ pub unsafe extern "C" fn weft_world_get_velocities_range(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             get_range(world, first, count, out, stride, |w, i| {
                 w.velocities().get(i).map(|v| v.to_array())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Overwrites the positions (metres) of vertices `first .. first + count - 1` from `src`
@@ -396,9 +383,10 @@ pub unsafe extern "C" fn weft_world_set_positions_range(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             edit_range(
                 world,
                 first,
@@ -407,11 +395,9 @@ pub unsafe extern "C" fn weft_world_set_positions_range(
                 stride,
                 c"positions",
                 World::set_positions_range,
-            )
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            ),
+        )
+    }
 }
 
 /// Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
@@ -429,9 +415,10 @@ pub unsafe extern "C" fn weft_world_set_velocities_range(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             edit_range(
                 world,
                 first,
@@ -440,11 +427,9 @@ pub unsafe extern "C" fn weft_world_set_velocities_range(
                 stride,
                 c"velocities",
                 World::set_velocities_range,
-            )
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            ),
+        )
+    }
 }
 
 /// Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres),
@@ -466,9 +451,10 @@ pub unsafe extern "C" fn weft_world_transform(
     keep_velocity: u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let keep = match keep_velocity {
                     0 => false,
@@ -482,11 +468,9 @@ pub unsafe extern "C" fn weft_world_transform(
                         EditError::NonFinite => fault(WeftResult::NonFinite).what(c"transform"),
                         e => edit_fault(e, &w.world),
                     })
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Adds forces (newtons) to vertices `first .. first + count - 1` for the next
@@ -510,9 +494,10 @@ pub unsafe extern "C" fn weft_world_add_forces(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             edit_range(
                 world,
                 first,
@@ -521,11 +506,9 @@ pub unsafe extern "C" fn weft_world_add_forces(
                 stride,
                 c"forces",
                 World::add_forces,
-            )
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            ),
+        )
+    }
 }
 
 /// Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
@@ -545,9 +528,10 @@ pub unsafe extern "C" fn weft_world_add_impulses(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             edit_range(
                 world,
                 first,
@@ -556,11 +540,9 @@ pub unsafe extern "C" fn weft_world_add_impulses(
                 stride,
                 c"impulses",
                 World::add_impulses,
-            )
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            ),
+        )
+    }
 }
 
 /// Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
@@ -584,9 +566,10 @@ pub unsafe extern "C" fn weft_world_set_mass_scales(
     stride: usize,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             edit_range(
                 world,
                 first,
@@ -595,11 +578,9 @@ pub unsafe extern "C" fn weft_world_set_mass_scales(
                 stride,
                 c"scales",
                 World::set_mass_scales,
-            )
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            ),
+        )
+    }
 }
 
 /// Pins vertex `vertex` to `target` (metres) in every direction, or moves its pin there. The vertex travels to the
@@ -617,9 +598,10 @@ pub unsafe extern "C" fn weft_world_set_pin(
     target: WeftVec3,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 if !vec3(target).iter().all(|c| c.is_finite()) {
                     return Err(fault(WeftResult::NonFinite).what(c"target").vertex(vertex));
@@ -627,11 +609,9 @@ pub unsafe extern "C" fn weft_world_set_pin(
                 w.world
                     .set_pin(vertex, vec3(target))
                     .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// # Safety
@@ -724,18 +704,17 @@ pub unsafe extern "C" fn weft_world_remove_pin(
     vertex: u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 w.world
                     .remove_pin(vertex)
                     .map_err(|e| edit_fault(e, &w.world).vertex(vertex))
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Number of pinned vertices (0 for an invalid handle).
@@ -764,9 +743,10 @@ pub unsafe extern "C" fn weft_world_add_collider(
     out_index: *mut u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let d = read_ref(def, c"def")?;
                 if d.internal_cookie != COLLIDER_DEF_COOKIE {
@@ -788,11 +768,9 @@ pub unsafe extern "C" fn weft_world_add_collider(
                     .map_err(|e| edit_fault(e, &w.world))?;
                 write_opt(out_index, index);
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (same or another
@@ -810,19 +788,18 @@ pub unsafe extern "C" fn weft_world_set_collider(
     shape: *const WeftShape,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let s = shape_from_c(read_ref(shape, c"shape")?)?;
                 w.world
                     .set_collider_shape(index, s)
                     .map_err(|e| edit_fault(e, &w.world).index(index))
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
@@ -838,18 +815,17 @@ pub unsafe extern "C" fn weft_world_remove_collider(
     id: u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 w.world
                     .remove_collider(id)
                     .map_err(|e| edit_fault(e, &w.world).index(id))
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Removes every collider (their ids are not given again). Wakes the world.
@@ -862,17 +838,16 @@ pub unsafe extern "C" fn weft_world_clear_colliders(
     world: *mut WeftWorld,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 w.world.clear_colliders();
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Number of colliders (0 for an invalid handle).

@@ -437,9 +437,10 @@ pub unsafe extern "C" fn weft_world_step(
     out_stats: *mut WeftStepStats,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 if !out_stats.is_null() && !out_stats.is_aligned() {
                     return Err(fault(WeftResult::Misaligned).what(c"out_stats"));
@@ -447,11 +448,9 @@ pub unsafe extern "C" fn weft_world_step(
                 let stats = w.world.step_dt(dt).map_err(step_fault)?;
                 write_opt(out_stats, stats_to_c(&stats));
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// The world's current settings, in `*out_settings`.
@@ -491,18 +490,17 @@ pub unsafe extern "C" fn weft_world_set_settings(
     settings: *const WeftSettings,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let s = read_ref(settings, c"settings")?;
                 let s = settings_from_c(s, w.world.settings())?;
                 w.world.set_settings(s).map_err(init_fault)
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Replaces the effect bit set (`WEFT_EFFECT_*`; other bits are `WEFT_RESULT_INVALID_SETTING`).
@@ -517,20 +515,19 @@ pub unsafe extern "C" fn weft_world_set_effects(
     effects: u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let s = Settings {
                     effects,
                     ..*w.world.settings()
                 };
                 w.world.set_settings(s).map_err(init_fault)
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
@@ -547,9 +544,10 @@ pub unsafe extern "C" fn weft_world_set_solver(
     solver: u32,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 let solver = match solver {
                     WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
@@ -558,11 +556,9 @@ pub unsafe extern "C" fn weft_world_set_solver(
                 };
                 w.world.set_solver(solver);
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
@@ -577,17 +573,16 @@ pub unsafe extern "C" fn weft_world_set_user_data(
     user_data: *mut c_void,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 w.user_data = user_data;
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
@@ -621,17 +616,16 @@ pub unsafe extern "C" fn weft_world_wake(
     world: *mut WeftWorld,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    let r: FfiResult<()> = {
-        // SAFETY: forwarded contract.
-        unsafe {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
             with_world(world, |w| {
                 w.world.wake();
                 Ok(())
-            })
-        }
-    };
-    // SAFETY: a non-NULL `out_detail` is writable (the contract).
-    unsafe { detailed(out_detail, r) }
+            }),
+        )
+    }
 }
 
 /// Number of vertices of the world's cloth (0 for an invalid handle).

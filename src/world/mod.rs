@@ -152,6 +152,22 @@ fn check_range_input<const N: usize>(
     Ok(first..end)
 }
 
+/// `array[first..first + input.count()] = input`, after [`check_range_input`] (nothing is
+/// written on failure).
+fn write_range(
+    array: &mut [Vec3A],
+    first: usize,
+    input: &Strided<'_, 3>,
+    n: usize,
+) -> Result<(), EditError> {
+    let range = check_range_input(input, first, n)?;
+    let to = array.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
+    for (k, x) in to.iter_mut().enumerate() {
+        *x = Vec3A::from(input.get(k).ok_or(EditError::VertexOutOfRange)?);
+    }
+    Ok(())
+}
+
 /// The live prefix `..n` for an accessor or an infallible helper: empty should `n` exceed the
 /// array, which a world's counts never do.
 fn prefix<T>(array: &[T], n: usize) -> &[T] {
@@ -348,11 +364,7 @@ impl<'a> World<'a> {
         first: usize,
         positions: &Strided<'_, 3>,
     ) -> Result<(), EditError> {
-        let range = check_range_input(positions, first, self.n)?;
-        let x = self.a.x.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
-        for (k, x) in x.iter_mut().enumerate() {
-            *x = Vec3A::from(positions.get(k).ok_or(EditError::VertexOutOfRange)?);
-        }
+        write_range(self.a.x, first, positions, self.n)?;
         self.wake();
         Ok(())
     }
@@ -377,11 +389,7 @@ impl<'a> World<'a> {
         first: usize,
         velocities: &Strided<'_, 3>,
     ) -> Result<(), EditError> {
-        let range = check_range_input(velocities, first, self.n)?;
-        let v = self.a.v.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
-        for (k, v) in v.iter_mut().enumerate() {
-            *v = Vec3A::from(velocities.get(k).ok_or(EditError::VertexOutOfRange)?);
-        }
+        write_range(self.a.v, first, velocities, self.n)?;
         prefix_mut(self.a.dv, self.n).fill(Vec3A::ZERO);
         self.wake();
         Ok(())
