@@ -694,3 +694,52 @@ fn triangle_order_does_not_change_the_simulation() {
         assert!(n.dot(*m) > 0.999, "{n} {m}");
     }
 }
+
+/// Contacts follow their collider into its new slot: a cloth held by static friction on an
+/// inclined plane stays put when a collider added before the plane is removed (a contact
+/// that lost its collider would slide for a substep, ~g·sinθ·h² ≈ 1 mm).
+#[test]
+fn sticking_contacts_survive_the_removal_of_another_collider() {
+    use weft::collide::{Collider, Shape};
+    let mat = [anisotropic()];
+    let theta = 0.3f32;
+    let normal = Vec3A::new(0.0, -theta.sin(), theta.cos());
+    let mut sheet = Sheet::grid(6, 6, 0.3, 0.3);
+    // on the incline, 6 mm above it
+    sheet.transform(|p| {
+        let p = Vec3A::new(p[0], p[1] * theta.cos(), p[1] * theta.sin()) + normal * 0.006;
+        p.to_array()
+    });
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        effects: effects::WARPING | effects::GRAVITY | effects::COLLISION | effects::DAMPING,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mat, settings);
+    let away = Shape::Sphere {
+        center: Vec3A::new(0.0, 5.0, 0.0),
+        radius: 0.1,
+    };
+    let other = w.add_collider(Collider::new(away, 0.5, 0.005)).unwrap();
+    let incline = Shape::Plane {
+        normal,
+        offset: 0.0,
+    };
+    w.add_collider(Collider::new(incline, 1.0, 0.005)).unwrap();
+    for _ in 0..60 {
+        w.step().unwrap();
+    }
+    let before = w.positions().to_vec();
+    w.step().unwrap();
+    let still = |w: &World<'_>| {
+        w.positions()
+            .iter()
+            .zip(&before)
+            .map(|(p, q)| (*p - *q).length())
+            .fold(0.0f32, f32::max)
+    };
+    assert!(still(&w) < 1e-5, "resting: moved {}", still(&w));
+    w.remove_collider(other).unwrap();
+    w.step().unwrap();
+    assert!(still(&w) < 1e-5, "after the removal: moved {}", still(&w));
+}
