@@ -5,14 +5,15 @@
  * Conventions:
  * - Functions are weft_*, types Weft*, constants WEFT_*.
  * - Every fallible call returns a WeftResult (WEFT_RESULT_OK is 0; weft_result_string names any
- *   value). Outputs are written only on success.
+ *   value). Outputs are written only on success. Every pointer is checked for NULL; enum-like
+ *   inputs are uint32_t and checked.
  * - One error channel: every call that returns a WeftResult takes, as its last argument,
  *   WeftErrorDetail *out_detail: NULL when the detail is not wanted, otherwise filled on every
  *   call (result OK and no index on success; on failure which vertex, triangle, field, count or
- *   capacity is at fault). Nothing is kept between calls, so the detail is always the call's own,
- *   also for calls that only read a world from several threads. Every pointer is checked for NULL; enum-like
- *   inputs are uint32_t and checked. No call allocates, blocks, or keeps a pointer it was given,
- *   except those documented as borrowed (the blob bytes and the world memory block).
+ *   capacity is at fault). Nothing is kept between calls, so the detail is always the call's
+ *   own, also for calls that only read a world from several threads.
+ * - No call allocates, blocks, or keeps a pointer it was given, except those documented as
+ *   borrowed (the blob bytes and the world memory block).
  * - Units: metres, seconds, kilograms; stiffness N/m, areal density kg/m^2.
  * - Memory is the caller's: weft_world_memory_size says how many bytes a world needs and the
  *   world lives in the block handed to weft_world_create, until weft_world_destroy.
