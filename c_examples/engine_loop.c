@@ -459,11 +459,11 @@ int main(int argc, char **argv)
     /* The static block must be big enough for the capacity we use. */
     build_mesh(0.5f);
     def = cloth_def();
-    MUST(weft_world_memory_size(&def.capacity, &needed));
+    MUST(weft_world_memory_size(&def.capacity, &needed, NULL));
     printf("world memory: %zu bytes needed, %zu reserved\n", needed, sizeof world_memory);
     if (needed > sizeof world_memory)
         return 1;
-    MUST(weft_bind_memory_size(FVERTS, &fine_needed));
+    MUST(weft_bind_memory_size(FVERTS, &fine_needed, NULL));
     if (fine_needed != sizeof bindings)
         return 1;
 
@@ -481,7 +481,7 @@ int main(int argc, char **argv)
 
     /* The render mesh: bound once, from the (u, v) inside its own interleaved buffer. */
     build_fine_mesh();
-    MUST(weft_localize_frames_size(world, &fine_needed));
+    MUST(weft_localize_frames_size(world, &fine_needed, NULL));
     if (fine_needed != sizeof frames)
         return 1;
     if (weft_bind(world, fine_buffer + FUV_AT, FVERTS, FSTRIDE, bindings, sizeof bindings, &d) !=
@@ -496,18 +496,18 @@ int main(int argc, char **argv)
     /* Colliders: the floor, a sphere and a capsule that move under the cloth. */
     cdef = weft_default_collider_def();
     cdef.shape = weft_shape_plane(vec3(0.0f, 0.0f, 1.0f), -0.4f);
-    MUST(weft_world_add_collider(world, &cdef, NULL));
+    MUST(weft_world_add_collider(world, &cdef, NULL, NULL));
     cdef.shape = sphere_at(0.0f);
     cdef.friction = 0.3f;
-    MUST(weft_world_add_collider(world, &cdef, &sphere));
+    MUST(weft_world_add_collider(world, &cdef, &sphere, NULL));
     cdef.shape = capsule_at(0.0f);
-    MUST(weft_world_add_collider(world, &cdef, &capsule));
+    MUST(weft_world_add_collider(world, &cdef, &capsule, NULL));
 
     /* Pins: the two far corners, driven by an animated anchor. */
     anchor_a = get_pos(corner_a);
     anchor_b = get_pos(corner_b);
-    MUST(weft_world_set_pin(world, corner_a, anchor_a));
-    MUST(weft_world_set_pin(world, corner_b, anchor_b));
+    MUST(weft_world_set_pin(world, corner_a, anchor_a, NULL));
+    MUST(weft_world_set_pin(world, corner_b, anchor_b, NULL));
 
     for (frame = 1; frame <= 900; ++frame) {
         float t = (float)frame * DT;
@@ -516,42 +516,40 @@ int main(int argc, char **argv)
             /* Animate: the anchor sways along x, the colliders move. */
             float sway = 0.1f * wave(0.5f * t);
             WeftShape s = sphere_at(t);
-            MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x + sway, anchor_a.y, anchor_a.z)));
-            MUST(weft_world_set_pin(world, corner_b, vec3(anchor_b.x + sway, anchor_b.y, anchor_b.z)));
-            MUST(weft_world_set_collider(world, sphere, &s));
+            MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x + sway, anchor_a.y, anchor_a.z), NULL));
+            MUST(weft_world_set_pin(world, corner_b, vec3(anchor_b.x + sway, anchor_b.y, anchor_b.z), NULL));
+            MUST(weft_world_set_collider(world, sphere, &s, NULL));
             s = capsule_at(t);
-            MUST(weft_world_set_collider(world, capsule, &s));
+            MUST(weft_world_set_collider(world, capsule, &s, NULL));
         }
         /* Effects change at run time. */
         if (frame == 60) {
-            MUST(weft_world_get_settings(world, &settings));
-            MUST(weft_world_set_effects(world, settings.effects & ~WEFT_EFFECT_BENDING));
+            MUST(weft_world_get_settings(world, &settings, NULL));
+            MUST(weft_world_set_effects(world, settings.effects & ~WEFT_EFFECT_BENDING, NULL));
             printf("frame %d: bending off\n", frame);
         }
         if (frame == 120) {
-            MUST(weft_world_get_settings(world, &settings));
+            MUST(weft_world_get_settings(world, &settings, NULL));
             settings.effects |= WEFT_EFFECT_BENDING | WEFT_EFFECT_WIND;
             settings.wind = vec3(2.0f, 0.0f, 0.0f);
             settings.drag = 0.5f;
-            MUST(weft_world_set_settings(world, &settings));
+            MUST(weft_world_set_settings(world, &settings, NULL));
             printf("frame %d: bending on, wind on\n", frame);
         }
         if (frame == 241) {
             /* Calm down: no wind, colliders away, more damping, so the cloth can sleep. */
-            MUST(weft_world_clear_colliders(world));
-            MUST(weft_world_get_settings(world, &settings));
+            MUST(weft_world_clear_colliders(world, NULL));
+            MUST(weft_world_get_settings(world, &settings, NULL));
             settings.effects &= ~WEFT_EFFECT_WIND;
             settings.damping_mass = 3.0f;
             settings.sleep_velocity = 0.01f;
             settings.sleep_frames = 10;
-            MUST(weft_world_set_settings(world, &settings));
+            MUST(weft_world_set_settings(world, &settings, NULL));
             printf("frame %d: colliders cleared, wind off, settling\n", frame);
         }
-        r = weft_world_step(world, DT, &stats);
+        r = weft_world_step(world, DT, &stats, &d);
         if (r != WEFT_RESULT_OK) {
-            WeftErrorDetail e;
-            MUST(weft_world_last_error_detail(world, &e));
-            report("step", r, &e);
+            report("step", r, &d);
             return 1;
         }
         if ((int)stats.contacts > max_contacts)
@@ -560,7 +558,7 @@ int main(int argc, char **argv)
         {
             static WeftVec3 v[VERTS];
             int i;
-            MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3)));
+            MUST(weft_world_get_velocities(world, v, VERTS, sizeof(WeftVec3), NULL));
             for (i = 0; i < VERTS; ++i) {
                 float s2 = v[i].x * v[i].x + v[i].y * v[i].y + v[i].z * v[i].z;
                 if (s2 > max_speed2)
@@ -573,7 +571,7 @@ int main(int argc, char **argv)
         }
         /* The engine's buffers get the new positions, in place: the cloth's own, and the
          * localized render mesh. */
-        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE, NULL));
         localize_frame(world);
         if (asleep_at < 0 && weft_world_is_asleep(world)) {
             asleep_at = frame;
@@ -586,33 +584,32 @@ int main(int argc, char **argv)
         printf("never fell asleep\n");
         return 1;
     }
-    MUST(weft_world_step(world, DT, &stats));
+    MUST(weft_world_step(world, DT, &stats, NULL));
     printf("asleep step: %s, %u substeps\n", stats.asleep ? "skipped" : "ran", (unsigned)stats.substeps);
     /* Pulling a pin wakes it. */
-    MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x, anchor_a.y, anchor_a.z + 0.05f)));
-    MUST(weft_world_step(world, DT, &stats));
+    MUST(weft_world_set_pin(world, corner_a, vec3(anchor_a.x, anchor_a.y, anchor_a.z + 0.05f), NULL));
+    MUST(weft_world_step(world, DT, &stats, NULL));
     printf("after moving a pin: %s\n", weft_world_is_asleep(world) ? "asleep" : "awake");
     if (weft_world_is_asleep(world) || stats.asleep)
         ++errors_seen;
 
     /* Runtime errors are reported too; the world stays usable. */
-    expect("pin out of range", weft_world_set_pin(world, VERTS, anchor_a), WEFT_RESULT_VERTEX_OUT_OF_RANGE, NULL);
-    MUST(weft_world_last_error_detail(world, &d));
+    expect("pin out of range", weft_world_set_pin(world, VERTS, anchor_a, &d), WEFT_RESULT_VERTEX_OUT_OF_RANGE, &d);
     if (d.vertex != VERTS)
         ++errors_seen;
-    expect("zero dt", weft_world_step(world, 0.0f, NULL), WEFT_RESULT_INVALID_TIME_STEP, NULL);
-    expect("short buffer", weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS - 1, STRIDE),
+    expect("zero dt", weft_world_step(world, 0.0f, NULL, NULL), WEFT_RESULT_INVALID_TIME_STEP, NULL);
+    expect("short buffer", weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS - 1, STRIDE, NULL),
            WEFT_RESULT_COUNT_MISMATCH, NULL);
-    expect("overlapping stride", weft_world_get_positions(world, vertex_buffer, VERTS, 8),
+    expect("overlapping stride", weft_world_get_positions(world, vertex_buffer, VERTS, 8, NULL),
            WEFT_RESULT_INVALID_ARGUMENT, NULL);
-    expect("unknown effect bit", weft_world_set_effects(world, 1u << 30), WEFT_RESULT_INVALID_SETTING, NULL);
+    expect("unknown effect bit", weft_world_set_effects(world, 1u << 30, NULL), WEFT_RESULT_INVALID_SETTING, NULL);
 
     {
         /* The pinned corner is on its target; nothing went through the floor. */
         WeftVec3 a = get_pos(corner_a);
         float lowest = 1.0f;
         int i;
-        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE));
+        MUST(weft_world_get_positions(world, vertex_buffer + POS_AT, VERTS, STRIDE, NULL));
         a = get_pos(corner_a);
         for (i = 0; i < VERTS; ++i) {
             WeftVec3 p = get_pos((uint32_t)i);
@@ -669,8 +666,8 @@ int main(int argc, char **argv)
             ++errors_seen;
     }
     write_obj(argv[2]);
-    MUST(weft_world_destroy(world));
-    expect("destroyed handle", weft_world_step(world, DT, NULL), WEFT_RESULT_INVALID_HANDLE, NULL);
+    MUST(weft_world_destroy(world, NULL));
+    expect("destroyed handle", weft_world_step(world, DT, NULL, NULL), WEFT_RESULT_INVALID_HANDLE, NULL);
     free(bytes);
     if (errors_seen != 0) {
         printf("engine_loop: %d unexpected results\n", errors_seen);

@@ -113,7 +113,7 @@ int main(int argc, char **argv)
         free(bytes);
         return 1;
     }
-    r = weft_blob_cell_info(&blob, 0, &cell);
+    r = weft_blob_cell_info(&blob, 0, &cell, NULL);
     if (failed(r, "weft_blob_cell_info", NULL)) {
         free(bytes);
         return 1;
@@ -153,7 +153,7 @@ int main(int argc, char **argv)
     def.settings.substeps = 2;
 
     /* 3. The world lives in memory we own. */
-    r = weft_world_memory_size(&def.capacity, &memory_size);
+    r = weft_world_memory_size(&def.capacity, &memory_size, NULL);
     if (failed(r, "weft_world_memory_size", NULL)) {
         free(bytes);
         return 1;
@@ -171,22 +171,18 @@ int main(int argc, char **argv)
            memory_size);
 
     /* 4. Pin two corners where they are, and let the rest fall. */
-    if (failed(weft_world_set_pin(world, corner_a, positions[corner_a]), "weft_world_set_pin", NULL) ||
-        failed(weft_world_set_pin(world, corner_b, positions[corner_b]), "weft_world_set_pin", NULL))
+    if (failed(weft_world_set_pin(world, corner_a, positions[corner_a], NULL), "weft_world_set_pin", NULL) ||
+        failed(weft_world_set_pin(world, corner_b, positions[corner_b], NULL), "weft_world_set_pin", NULL))
         goto done;
     for (frame = 1; frame <= FRAMES; ++frame) {
-        r = weft_world_step(world, 1.0f / 60.0f, &stats);
-        if (r != WEFT_RESULT_OK) {
-            WeftErrorDetail d;
-            if (weft_world_last_error_detail(world, &d) == WEFT_RESULT_OK)
-                failed(r, "weft_world_step", &d);
+        r = weft_world_step(world, 1.0f / 60.0f, &stats, &detail);
+        if (failed(r, "weft_world_step", &detail))
             goto done;
-        }
         /* An engine localizes here, every frame it draws (step 6 below, after the loop). */
     }
 
     /* 5. Read the result into our own array (tightly packed: stride = sizeof(WeftVec3)). */
-    r = weft_world_get_positions(world, out, N * N, sizeof(WeftVec3));
+    r = weft_world_get_positions(world, out, N * N, sizeof(WeftVec3), NULL);
     if (failed(r, "weft_world_get_positions", NULL))
         goto done;
     for (i = 0; i < N * N; ++i) {
@@ -228,7 +224,7 @@ int main(int argc, char **argv)
                         fine_materials, &detail);
     if (failed(r, "weft_tiled_mesh", &detail))
         goto done;
-    r = weft_bind_memory_size(fine_count, &bindings_size);
+    r = weft_bind_memory_size(fine_count, &bindings_size, NULL);
     if (failed(r, "weft_bind_memory_size", NULL) || (bindings = malloc(bindings_size)) == NULL)
         goto done;
     r = weft_bind(world, fine_uvs, fine_count, sizeof(WeftVec2), bindings, bindings_size,
@@ -240,7 +236,7 @@ int main(int argc, char **argv)
            (unsigned)fine_count, (unsigned)fine_triangles,
            1000.0 * cell.width / (cell.cols * cell.refine), bindings_size);
 
-    r = weft_localize_frames_size(world, &frames_size);
+    r = weft_localize_frames_size(world, &frames_size, NULL);
     if (failed(r, "weft_localize_frames_size", NULL) ||
         (frames = aligned_alloc(WEFT_LOCALIZE_FRAMES_ALIGN, frames_size)) == NULL)
         goto done;
@@ -338,7 +334,7 @@ int main(int argc, char **argv)
 done:
     /* 7. Destroy the world before freeing its memory and the blob it borrows. */
     if (world != NULL)
-        weft_world_destroy(world);
+        weft_world_destroy(world, NULL);
     free(frames);
     free(bindings);
     free(fine_positions);

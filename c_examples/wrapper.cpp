@@ -61,8 +61,12 @@ inline WeftErrorDetail none() {
     d.what = "";
     return d;
 }
-inline void check(const char* call, WeftResult r) {
-    if (r != WEFT_RESULT_OK) throw Error(call, r, none());
+// Runs `call` with a detail to fill (the API's one error channel) and throws it on failure.
+template <class Call>
+inline void check(const char* name, Call call) {
+    WeftErrorDetail d = none();
+    WeftResult r = call(&d);
+    if (r != WEFT_RESULT_OK) throw Error(name, r, d);
 }
 }  // namespace detail
 
@@ -86,7 +90,7 @@ public:
     std::uint32_t cell_count() const noexcept { return blob_.cell_count; }
     WeftCellInfo cell(std::uint32_t i) const {
         WeftCellInfo info;
-        detail::check("weft_blob_cell_info", weft_blob_cell_info(&blob_, i, &info));
+        detail::check("weft_blob_cell_info", [&](WeftErrorDetail* d) { return weft_blob_cell_info(&blob_, i, &info, d); });
         return info;
     }
 
@@ -141,20 +145,20 @@ class World {
 public:
     World(const WeftWorldDef& def, const Blob& blob) {
         std::size_t size = 0;
-        detail::check("weft_world_memory_size", weft_world_memory_size(&def.capacity, &size));
+        detail::check("weft_world_memory_size", [&](WeftErrorDetail* d) { return weft_world_memory_size(&def.capacity, &size, d); });
         memory_ = aligned_bytes(size, weft_world_memory_align());
         WeftErrorDetail d;
         WeftResult r = weft_world_create(&def, blob.get(), memory_.get(), size, &world_, &d);
         if (r != WEFT_RESULT_OK) throw Error("weft_world_create", r, d);
     }
     ~World() {
-        if (world_ != nullptr) weft_world_destroy(world_);
+        if (world_ != nullptr) weft_world_destroy(world_, NULL);
     }
     World(World&& o) noexcept
         : memory_(std::move(o.memory_)), world_(std::exchange(o.world_, nullptr)) {}
     World& operator=(World&& o) noexcept {
         if (this != &o) {
-            if (world_ != nullptr) weft_world_destroy(world_);
+            if (world_ != nullptr) weft_world_destroy(world_, NULL);
             world_ = std::exchange(o.world_, nullptr);
             memory_ = std::move(o.memory_);
         }
@@ -165,46 +169,44 @@ public:
 
     WeftStepStats step(float dt) {
         WeftStepStats s;
-        call("weft_world_step", weft_world_step(world_, dt, &s));
+        call("weft_world_step", [&](WeftErrorDetail* d) { return weft_world_step(world_, dt, &s, d); });
         return s;
     }
     void pin(std::uint32_t vertex, WeftVec3 target) {
-        call("weft_world_set_pin", weft_world_set_pin(world_, vertex, target));
+        call("weft_world_set_pin", [&](WeftErrorDetail* d) { return weft_world_set_pin(world_, vertex, target, d); });
     }
     std::uint32_t add_collider(const WeftShape& shape, float friction) {
         WeftColliderDef def = weft_default_collider_def();
         def.shape = shape;
         def.friction = friction;
         std::uint32_t index = 0;
-        call("weft_world_add_collider", weft_world_add_collider(world_, &def, &index));
+        call("weft_world_add_collider", [&](WeftErrorDetail* d) { return weft_world_add_collider(world_, &def, &index, d); });
         return index;
     }
     void move_collider(std::uint32_t index, const WeftShape& shape) {
-        call("weft_world_set_collider", weft_world_set_collider(world_, index, &shape));
+        call("weft_world_set_collider", [&](WeftErrorDetail* d) { return weft_world_set_collider(world_, index, &shape, d); });
     }
     void set_effects(std::uint32_t effects) {
-        call("weft_world_set_effects", weft_world_set_effects(world_, effects));
+        call("weft_world_set_effects", [&](WeftErrorDetail* d) { return weft_world_set_effects(world_, effects, d); });
     }
     WeftSettings settings() const {
         WeftSettings s;
-        detail::check("weft_world_get_settings", weft_world_get_settings(world_, &s));
+        detail::check("weft_world_get_settings", [&](WeftErrorDetail* d) { return weft_world_get_settings(world_, &s, d); });
         return s;
     }
     // Copies positions into any array of structs: `member` points at the position inside the
     // first element.
     template <class Vertex>
     void read_positions(std::vector<Vertex>& out, WeftVec3 Vertex::*member) const {
-        detail::check("weft_world_get_positions",
-                      weft_world_get_positions(world_, &(out.data()->*member),
+        detail::check("weft_world_get_positions", [&](WeftErrorDetail* d) { return weft_world_get_positions(world_, &(out.data()->*member),
                                                static_cast<std::uint32_t>(out.size()),
-                                               sizeof(Vertex)));
+                                               sizeof(Vertex), d); });
     }
     void read_velocities(std::vector<WeftVec3>& out) const {
         out.resize(vertex_count());
-        detail::check("weft_world_get_velocities",
-                      weft_world_get_velocities(world_, out.data(),
+        detail::check("weft_world_get_velocities", [&](WeftErrorDetail* d) { return weft_world_get_velocities(world_, out.data(),
                                                 static_cast<std::uint32_t>(out.size()),
-                                                sizeof(WeftVec3)));
+                                                sizeof(WeftVec3), d); });
     }
     std::uint32_t vertex_count() const noexcept { return weft_world_vertex_count(world_); }
     bool asleep() const noexcept { return weft_world_is_asleep(world_); }
@@ -214,7 +216,7 @@ public:
     Bindings bind(const std::vector<Vertex>& mesh, WeftVec2 Vertex::*member) const {
         Bindings b;
         b.count_ = static_cast<std::uint32_t>(mesh.size());
-        detail::check("weft_bind_memory_size", weft_bind_memory_size(b.count_, &b.size_));
+        detail::check("weft_bind_memory_size", [&](WeftErrorDetail* d) { return weft_bind_memory_size(b.count_, &b.size_, d); });
         b.words_.resize((b.size_ + 3) / 4);
         WeftErrorDetail d;
         WeftResult r = weft_bind(world_, &(mesh.data()->*member), b.count_, sizeof(Vertex),
@@ -225,7 +227,7 @@ public:
     // Measures the cloth as it is now into `frames` (allocated on first use).
     void prepare(Frames& frames, std::uint32_t measure = WEFT_STRAIN_COROTATED) const {
         std::size_t size = 0;
-        detail::check("weft_localize_frames_size", weft_localize_frames_size(world_, &size));
+        detail::check("weft_localize_frames_size", [&](WeftErrorDetail* d) { return weft_localize_frames_size(world_, &size, d); });
         if (frames.size_ != size) {
             frames.bytes_ = aligned_bytes(size, WEFT_LOCALIZE_FRAMES_ALIGN);
             frames.size_ = size;
@@ -260,12 +262,10 @@ public:
     }
 
 private:
-    // A failed call on the world: its detail is kept by the world.
-    void call(const char* name, WeftResult r) {
-        if (r == WEFT_RESULT_OK) return;
-        WeftErrorDetail d = detail::none();
-        weft_world_last_error_detail(world_, &d);
-        throw Error(name, r, d);
+    // A call on the world, with its detail.
+    template <class Call>
+    void call(const char* name, Call c) {
+        detail::check(name, c);
     }
     AlignedBytes memory_{nullptr, AlignedDelete{WEFT_WORLD_MEMORY_ALIGN}};
     WeftWorld* world_ = nullptr;

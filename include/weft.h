@@ -6,9 +6,17 @@
  * - Functions are weft_*, types Weft*, constants WEFT_*.
  * - Every fallible call returns a WeftResult (WEFT_RESULT_OK is 0; weft_result_string names any
  *   value). Outputs are written only on success. Every pointer is checked for NULL; enum-like
- *   inputs are uint32_t and checked. No call allocates, blocks, or keeps a pointer it was given,
- *   except those documented as borrowed (the blob bytes and the world memory block).
+ *   inputs are uint32_t and checked.
+ * - One error channel: every call that returns a WeftResult takes, as its last argument,
+ *   WeftErrorDetail *out_detail: NULL when the detail is not wanted, otherwise filled on every
+ *   call (result OK and no index on success; on failure which vertex, triangle, field, count or
+ *   capacity is at fault). Nothing is kept between calls, so the detail is always the call's
+ *   own, also for calls that only read a world from several threads.
+ * - No call allocates, blocks, or keeps a pointer it was given, except those documented as
+ *   borrowed (the blob bytes and the world memory block).
  * - Units: metres, seconds, kilograms; stiffness N/m, areal density kg/m^2.
+ * - Every position given or got is in your coordinates; a world simulates relative to an
+ *   origin near its cloth and converts in double precision (weft_world_get_origin says why).
  * - Memory is the caller's: weft_world_memory_size says how many bytes a world needs and the
  *   world lives in the block handed to weft_world_create, until weft_world_destroy.
  * - Vertex buffers are (pointer, count, byte stride), read and written unaligned, so an
@@ -20,17 +28,18 @@
  * Life of a cloth:
  *   1. weft_blob_parse(bytes, size, &blob, &detail)                 the cells, borrowed
  *   2. def = weft_default_world_def(); set positions, uvs, indices, counts, material(s)
- *   3. weft_world_memory_size(&def.capacity, &size); memory = aligned_alloc(16, size)
+ *   3. weft_world_memory_size(&def.capacity, &size, NULL); memory = aligned_alloc(16, size)
  *   4. weft_world_create(&def, &blob, memory, size, &world, &detail)
- *   5. per frame: weft_world_set_pin / weft_world_set_collider, weft_world_step(world, dt, &stats),
- *      weft_world_get_positions(world, vertex_buffer, count, stride)
- *   6. weft_world_destroy(world); free(memory); free(bytes)
+ *   5. per frame: weft_world_set_pin / weft_world_set_collider / weft_world_add_forces,
+ *      weft_world_step(world, dt, &stats, &detail),
+ *      weft_world_get_positions(world, vertex_buffer, count, stride, NULL)
+ *   6. weft_world_destroy(world, NULL); free(memory); free(bytes)
  *
  * Localization (the fine pattern put back on the coarse cloth, for rendering):
  *   a. once per render mesh: its (u, v) (your own, or weft_tiled_mesh for the cell's micro
- *      mesh), weft_bind_memory_size(n, &size), bindings = malloc(size),
+ *      mesh), weft_bind_memory_size(n, &size, NULL), bindings = malloc(size),
  *      weft_bind(world, uvs, n, stride, bindings, size, &detail)
- *   b. once: weft_localize_frames_size(world, &fsize); frames = aligned_alloc(16, fsize)
+ *   b. once: weft_localize_frames_size(world, &fsize, NULL); frames = aligned_alloc(16, fsize)
  *   c. per frame, after the step: weft_localize_prepare(world, WEFT_STRAIN_COROTATED, frames,
  *      fsize, NULL); out = weft_default_localize_output(), set out.positions (and normals)
  *      and strides; weft_localize(world, frames, bindings, size, first, count, &out, &detail)
@@ -191,7 +200,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3926560
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3995216
 
 /**
  * A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
@@ -204,14 +213,22 @@
  * split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
  * (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
  * problem's linear solution; use this one unless you want the paper verbatim. (The coarse step
- * itself measures Green strain; the two agree to first order.)
+ * itself measures Green strain; the two agree to first order.) Either measure takes one
+ * strain per coarse triangle (blended to its vertices): where the macro strain varies across
+ * a triangle (e.g. a stiff laminate hanging under its own weight, strain rising by `S ρ g` per
+ * metre up the cloth, `S` the compliance along the pull, `ρ` the areal density) a layer's
+ * strain is off by up to `± S ρ g t / 2` for a triangle `t` metres tall: refine the coarse
+ * cloth where that matters.
  */
 #define WEFT_STRAIN_COROTATED 0
 
 /**
  * `strain_measure` of `weft_localize_prepare`: the paper verbatim, Green strain (FᵀF - I)/2
- * (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order;
- * overshoots the micro fluctuation slightly under stretch.
+ * (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order
+ * only: under stretch it overshoots the micro fluctuation, and the stiff layers' small strain
+ * comes out far too small — by 7 % at 1 % stretch and 14 % at 2 % across a 10:1 laminate
+ * (tests/localize.rs), and by 62 % on the hard layer at 1 % stretch of a stiffer laminate (an
+ * outside measurement). Use it only to reproduce the paper.
  */
 #define WEFT_STRAIN_GREEN 1
 
@@ -227,7 +244,8 @@
 
 /**
  * `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
- * vertex normals (smooth, cheap: about 1.3 × the cost of positions alone).
+ * vertex normals (smooth; about 1.8 × the cost of positions alone: 1.72 × measured by
+ * `examples/bench_localize.rs`, 1.84 × by an outside client).
  */
 #define WEFT_NORMALS_BLENDED 0
 
@@ -429,6 +447,12 @@ enum WeftResult
      */
     WEFT_RESULT_MESH_UV_OUT_OF_RANGE = 42,
     /**
+     * The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
+     * elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
+     * positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+     */
+    WEFT_RESULT_MESH_STRAIN_OUT_OF_RANGE = 43,
+    /**
      * The blob is shorter than its header, or than the size its header announces, or longer
      * (`detail.what` says which): a truncated or padded file.
      */
@@ -465,13 +489,14 @@ enum WeftResult
      */
     WEFT_RESULT_BLOB_CELL_OUT_OF_RANGE = 57,
     /**
-     * Vertex `detail.vertex` is ≥ the world's vertex count.
+     * Vertex `detail.vertex` is ≥ the world's vertex count (for a range, the last vertex
+     * asked for, and `detail.needed` the vertex count).
      */
     WEFT_RESULT_VERTEX_OUT_OF_RANGE = 60,
     /**
-     * Collider `detail.index` does not exist.
+     * No collider has the id `detail.index`: it was never added, or it was removed.
      */
-    WEFT_RESULT_COLLIDER_OUT_OF_RANGE = 61,
+    WEFT_RESULT_UNKNOWN_COLLIDER = 61,
     /**
      * A collider's numbers are invalid: non-finite, radius ≤ 0, a plane normal that is not unit
      * length (±0.001), friction or thickness < 0. `detail.what` names the field when known.
@@ -505,6 +530,10 @@ enum WeftResult
      * beyond f32 resolution. The world kept the state it had before the step.
      */
     WEFT_RESULT_UNSTABLE = 68,
+    /**
+     * A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
+     */
+    WEFT_RESULT_TRIANGLE_OUT_OF_RANGE = 69,
     /**
      * `weft_bind`: fine vertex `detail.vertex` lies outside the coarse cloth's (u, v) layout
      * (beyond a relative tolerance of 1e-5), or its (u, v) is NaN or infinite.
@@ -616,12 +645,17 @@ typedef struct WeftBlob {
      * Set by `weft_blob_parse`; do not touch.
      */
     uint32_t internal_cookie;
+    /**
+     * Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+     */
+    uint32_t reserved;
 } WeftBlob;
 
 /**
- * Where a failure is: filled by `weft_world_create` and `weft_blob_parse` (when their
- * `out_detail` is not NULL) and by `weft_world_last_error_detail`. Which fields apply is said
- * by each `WeftResult` value; the others are `WEFT_NONE` (indices) or "" (`what`).
+ * Where a failure is: written by every call that returns a `WeftResult` to its last argument,
+ * `out_detail`, when that is not NULL (the one error channel; see the top of this header).
+ * Which fields apply is said by each `WeftResult` value; the others are `WEFT_NONE` (indices)
+ * or "" (`what`).
  */
 typedef struct WeftErrorDetail {
     /**
@@ -660,6 +694,10 @@ typedef struct WeftErrorDetail {
      * The capacity that was too small.
      */
     uint32_t capacity;
+    /**
+     * Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+     */
+    uint32_t reserved;
     /**
      * A static, NUL-terminated string naming the argument, field or check; never NULL, owned
      * by the library.
@@ -865,8 +903,10 @@ typedef struct WeftWorldDef {
     uint32_t triangle_count;
     /**
      * Triangle vertex indices, 3 × `triangle_count` tightly packed `uint32_t` (4-aligned).
-     * Orientation is free but must be consistent across the sheet. NULL only when
-     * `triangle_count` is 0.
+     * Orientation (index order) is free, triangle by triangle: weft orients every triangle by
+     * its (u, v) layout, so a triangle listed in either order simulates identically. What must
+     * hold is that the (u, v) layout does not fold over itself
+     * (`WEFT_RESULT_MESH_FOLDED_UV`). NULL only when `triangle_count` is 0.
      */
     const uint32_t *indices;
     /**
@@ -942,6 +982,20 @@ typedef struct WeftColliderDef {
 } WeftColliderDef;
 
 /**
+ * A 2D vector: material coordinates (u, v) in metres. 8 bytes, no padding.
+ */
+typedef struct WeftVec2 {
+    /**
+     * u, metres.
+     */
+    float x;
+    /**
+     * v, metres.
+     */
+    float y;
+} WeftVec2;
+
+/**
  * What one `weft_world_step` did.
  */
 typedef struct WeftStepStats {
@@ -954,18 +1008,18 @@ typedef struct WeftStepStats {
      */
     float residual;
     /**
-     * Every substep's solve reached `settings.tolerance` (false: it stopped at
+     * 1 when every substep's solve reached `settings.tolerance` (0: it stopped at
      * `max_iterations`; the step is still valid, only less accurate).
      */
-    bool converged;
+    uint32_t converged;
     /**
      * Substeps taken (0 when asleep).
      */
     uint32_t substeps;
     /**
-     * The world was asleep and did nothing.
+     * 1 when the world was asleep and did nothing, else 0.
      */
-    bool asleep;
+    uint32_t asleep;
     /**
      * Vertices in contact with a collider at the end of the step.
      */
@@ -980,6 +1034,29 @@ typedef struct WeftStepStats {
      */
     float energy_removed;
 } WeftStepStats;
+
+/**
+ * A rotation as a unit quaternion `w + x i + y j + z k` (a non-unit one is normalized).
+ * 16 bytes, no padding.
+ */
+typedef struct WeftQuat {
+    /**
+     * i component.
+     */
+    float x;
+    /**
+     * j component.
+     */
+    float y;
+    /**
+     * k component.
+     */
+    float z;
+    /**
+     * Real component (1 for no rotation).
+     */
+    float w;
+} WeftQuat;
 
 /**
  * A point or vector in double precision: the world's origin (`weft_world_set_origin`).
@@ -1027,11 +1104,6 @@ typedef struct WeftLocalizeOutput {
      */
     size_t normal_stride;
     /**
-     * `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
-     * `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
-     */
-    uint32_t normal_mode;
-    /**
      * `WEFT_NORMALS_RECOMPUTED` only: the fine triangles, 3 × `fine_triangle_count` tightly
      * packed `uint32_t` (4-aligned) indices *relative to this call's range* (index k is
      * binding `first + k`, so every index is < `count`). Counter-clockwise in (u, v), as
@@ -1043,6 +1115,11 @@ typedef struct WeftLocalizeOutput {
      */
     const uint32_t *fine_indices;
     /**
+     * `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
+     * `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
+     */
+    uint32_t normal_mode;
+    /**
      * Number of triangles at `fine_indices`. Default 0.
      */
     uint32_t fine_triangle_count;
@@ -1052,24 +1129,11 @@ typedef struct WeftLocalizeOutput {
      */
     uint32_t collider_mode;
     /**
-     * Set by `weft_default_localize_output`; do not touch.
+     * Set by `weft_default_localize_output`; do not touch. (With `collider_mode` it ends the
+     * struct on an 8-byte boundary: no hidden padding.)
      */
     uint32_t internal_cookie;
 } WeftLocalizeOutput;
-
-/**
- * A 2D vector: material coordinates (u, v) in metres. 8 bytes, no padding.
- */
-typedef struct WeftVec2 {
-    /**
-     * u, metres.
-     */
-    float x;
-    /**
-     * v, metres.
-     */
-    float y;
-} WeftVec2;
 
 #ifdef __cplusplus
 extern "C" {
@@ -1112,10 +1176,12 @@ WeftResult weft_blob_parse(const void *data,
  * # Safety
  * `blob` points to a `WeftBlob` filled by `weft_blob_parse` whose bytes are still valid;
  * `out_info` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_blob_cell_info(const struct WeftBlob *blob,
                                uint32_t cell,
-                               struct WeftCellInfo *out_info);
+                               struct WeftCellInfo *out_info,
+                               struct WeftErrorDetail *out_detail);
 
 /**
  * The default capacity: `WEFT_DEFAULT_MAX_*`.
@@ -1161,13 +1227,40 @@ struct WeftShape weft_shape_capsule(struct WeftVec3 a, struct WeftVec3 b, float 
 struct WeftShape weft_shape_shell(struct WeftVec3 center, float radius);
 
 /**
+ * Fills caller buffers with a regular grid cloth, the quickest way to a first cloth:
+ * `columns × rows` vertices (both ≥ 2) spanning `width × height` metres (finite, > 0), vertex
+ * `j * columns + i` at `(u, v) = (width * i / (columns - 1), height * j / (rows - 1))`,
+ * written both as its position `(u, v, 0)` (flat at z = 0; move or rotate it as you like)
+ * and as its (u, v); each square split into two triangles along its lower-left to
+ * upper-right diagonal, `6 * (columns - 1) * (rows - 1)` indices in all. Hand the buffers to
+ * a `WeftWorldDef` with `vertex_count = columns * rows` and
+ * `triangle_count = 2 * (columns - 1) * (rows - 1)`.
+ *
+ * # Safety
+ * `positions` is writable for `columns * rows` `WeftVec3`, `uvs` for as many `WeftVec2`,
+ * `indices` for `6 * (columns - 1) * (rows - 1)` `uint32_t`; none overlap.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_grid(uint32_t columns,
+                     uint32_t rows,
+                     float width,
+                     float height,
+                     struct WeftVec3 *positions,
+                     struct WeftVec2 *uvs,
+                     uint32_t *indices,
+                     struct WeftErrorDetail *out_detail);
+
+/**
  * Bytes a world of `*capacity` needs (header and arrays), a multiple of
  * `WEFT_WORLD_MEMORY_ALIGN`, in `*out_size`.
  *
  * # Safety
  * `capacity` is readable, `out_size` writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_memory_size(const struct WeftCapacity *capacity, size_t *out_size);
+WeftResult weft_world_memory_size(const struct WeftCapacity *capacity,
+                                  size_t *out_size,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Required alignment (bytes) of a world's memory block: `WEFT_WORLD_MEMORY_ALIGN`.
@@ -1208,18 +1301,9 @@ WeftResult weft_world_create(const struct WeftWorldDef *def,
  * # Safety
  * `world` is NULL or points to readable, writable memory of at least `WEFT_WORLD_HEADER_SIZE`
  * bytes.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_destroy(struct WeftWorld *world);
-
-/**
- * The detail of the last failed call on `world` (calls taking a non-const `WeftWorld*`),
- * or `WEFT_RESULT_OK` with every index `WEFT_NONE` when none has failed.
- *
- * # Safety
- * `world` is a handle from `weft_world_create` (or NULL); `out_detail` is writable.
- */
-WeftResult weft_world_last_error_detail(const struct WeftWorld *world,
-                                        struct WeftErrorDetail *out_detail);
+WeftResult weft_world_destroy(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Advances the cloth by `dt` seconds (finite, > 0) in `settings.substeps` substeps, moving
@@ -1229,17 +1313,23 @@ WeftResult weft_world_last_error_detail(const struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); a non-NULL `out_stats` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_step(struct WeftWorld *world, float dt, struct WeftStepStats *out_stats);
+WeftResult weft_world_step(struct WeftWorld *world,
+                           float dt,
+                           struct WeftStepStats *out_stats,
+                           struct WeftErrorDetail *out_detail);
 
 /**
  * The world's current settings, in `*out_settings`.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_settings` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_settings(const struct WeftWorld *world,
-                                   struct WeftSettings *out_settings);
+                                   struct WeftSettings *out_settings,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Replaces the world's settings (all fields checked; nothing changes on failure). Wakes the
@@ -1247,8 +1337,11 @@ WeftResult weft_world_get_settings(const struct WeftWorld *world,
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `settings` is readable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_settings(struct WeftWorld *world, const struct WeftSettings *settings);
+WeftResult weft_world_set_settings(struct WeftWorld *world,
+                                   const struct WeftSettings *settings,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Replaces the effect bit set (`WEFT_EFFECT_*`; other bits are `WEFT_RESULT_INVALID_SETTING`).
@@ -1256,8 +1349,11 @@ WeftResult weft_world_set_settings(struct WeftWorld *world, const struct WeftSet
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
+WeftResult weft_world_set_effects(struct WeftWorld *world,
+                                  uint32_t effects,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
@@ -1267,8 +1363,32 @@ WeftResult weft_world_set_effects(struct WeftWorld *world, uint32_t effects);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_solver(struct WeftWorld *world, uint32_t solver);
+WeftResult weft_world_set_solver(struct WeftWorld *world,
+                                 uint32_t solver,
+                                 struct WeftErrorDetail *out_detail);
+
+/**
+ * Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
+ * it), for `weft_world_user_data` to give back; weft never reads it. NULL at create.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_user_data(struct WeftWorld *world,
+                                    void *user_data,
+                                    struct WeftErrorDetail *out_detail);
+
+/**
+ * The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
+ * handle).
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ */
+void *weft_world_user_data(const struct WeftWorld *world);
 
 /**
  * Whether the world is asleep (false for an invalid handle).
@@ -1283,8 +1403,9 @@ bool weft_world_is_asleep(const struct WeftWorld *world);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_wake(struct WeftWorld *world);
+WeftResult weft_world_wake(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Number of vertices of the world's cloth (0 for an invalid handle).
@@ -1303,6 +1424,45 @@ uint32_t weft_world_vertex_count(const struct WeftWorld *world);
 uint32_t weft_world_triangle_count(const struct WeftWorld *world);
 
 /**
+ * Copies the masses (kg) of vertices `first .. first + count - 1` out: vertex `first + k`'s
+ * mass to byte `k * stride` of `out` (written unaligned, `stride` ≥ 4). The masses are the
+ * lumped masses of the triangles' densities times the mass scales
+ * (`weft_world_set_mass_scales`).
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 4` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_get_masses(const struct WeftWorld *world,
+                                 uint32_t first,
+                                 uint32_t count,
+                                 void *out,
+                                 size_t stride,
+                                 struct WeftErrorDetail *out_detail);
+
+/**
+ * Copies the Green strain of triangles `first .. first + count - 1` out, for tearing or
+ * shading: triangle `first + k`'s 3 floats `[E11, E22, 2 E12]` to byte `k * stride` of `out`
+ * (written unaligned, `stride` ≥ 12). `E = (FᵀF - I) / 2`, `F` the map from the triangle's
+ * rest (u, v) to its current positions, so the axes are the cloth's u and v (Voigt order
+ * [11, 22, 12], engineering shear) and a rigid motion gives 0. The stretch ratio along u is
+ * `sqrt(1 + 2 E11)`, along v `sqrt(1 + 2 E22)`. A range past the last triangle is
+ * `WEFT_RESULT_TRIANGLE_OUT_OF_RANGE` (`detail.needed` the triangle count) and writes nothing.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_get_triangle_strains(const struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           void *out,
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
+
+/**
  * Copies the world's vertex positions (metres, in the caller's coordinates: see
  * `weft_world_set_origin`) out: vertex i's 3 floats to byte
  * `i * stride` of `out`, written unaligned (so straight into an interleaved vertex buffer).
@@ -1312,22 +1472,26 @@ uint32_t weft_world_triangle_count(const struct WeftWorld *world);
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
  * `(vertex_count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_positions(const struct WeftWorld *world,
                                     void *out,
                                     uint32_t count,
-                                    size_t stride);
+                                    size_t stride,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * Copies the world's vertex velocities (m/s) out, like `weft_world_get_positions`.
  *
  * # Safety
  * As `weft_world_get_positions`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_get_velocities(const struct WeftWorld *world,
                                      void *out,
                                      uint32_t count,
-                                     size_t stride);
+                                     size_t stride,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites every vertex position (metres) from `src`: vertex i's 3 floats at byte
@@ -1338,41 +1502,234 @@ WeftResult weft_world_get_velocities(const struct WeftWorld *world,
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
  * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_positions(struct WeftWorld *world,
                                     const void *src,
                                     uint32_t count,
-                                    size_t stride);
+                                    size_t stride,
+                                    struct WeftErrorDetail *out_detail);
 
 /**
  * Overwrites every vertex velocity (m/s), like `weft_world_set_positions`.
  *
  * # Safety
  * As `weft_world_set_positions`.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_velocities(struct WeftWorld *world,
                                      const void *src,
                                      uint32_t count,
-                                     size_t stride);
+                                     size_t stride,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
- * Pins vertex `vertex` to `target` (metres), or moves its pin there. The vertex travels to the
- * target over the next step (linearly across substeps), so animate a pin by setting its
- * target every frame. A new pin starts where the vertex is. Wakes the world when the target
+ * Copies the positions (metres, in your coordinates) of vertices `first .. first + count - 1`
+ * out: vertex
+ * `first + k`'s 3 floats to byte `k * stride` of `out` (written unaligned, `stride` ≥ 12).
+ * A range past the last vertex is `WEFT_RESULT_VERTEX_OUT_OF_RANGE` (`detail.needed` is the
+ * vertex count) and writes nothing.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `out` is writable for
+ * `(count - 1) * stride + 12` bytes and does not overlap the world's memory block.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_get_positions_range(const struct WeftWorld *world,
+                                          uint32_t first,
+                                          uint32_t count,
+                                          void *out,
+                                          size_t stride,
+                                          struct WeftErrorDetail *out_detail);
+
+/**
+ * Copies the velocities (m/s) of vertices `first .. first + count - 1` out, like
+ * `weft_world_get_positions_range`.
+ *
+ * # Safety
+ * As `weft_world_get_positions_range`.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_get_velocities_range(const struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           void *out,
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
+
+/**
+ * Overwrites the positions (metres, in your coordinates) of vertices
+ * `first .. first + count - 1` from `src`
+ * (vertex `first + k` at byte `k * stride`, read unaligned, `stride` ≥ 12); the others keep
+ * theirs. Checks the range and every value first (`WEFT_RESULT_NON_FINITE` names the
+ * vertex); nothing changes on failure. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_positions_range(struct WeftWorld *world,
+                                          uint32_t first,
+                                          uint32_t count,
+                                          const void *src,
+                                          size_t stride,
+                                          struct WeftErrorDetail *out_detail);
+
+/**
+ * Overwrites the velocities (m/s) of vertices `first .. first + count - 1`, like
+ * `weft_world_set_positions_range`, and forgets the solver's warm start.
+ *
+ * # Safety
+ * As `weft_world_set_positions_range`.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_velocities_range(struct WeftWorld *world,
+                                           uint32_t first,
+                                           uint32_t count,
+                                           const void *src,
+                                           size_t stride,
+                                           struct WeftErrorDetail *out_detail);
+
+/**
+ * Moves the whole cloth rigidly: every position `x` becomes `R x + translation` (metres, in
+ * your coordinates, so `R` turns about your zero: to turn about a point `p`, pass
+ * `translation = p - R p`), `R` the rotation of `rotation` (normalized; it must be finite and
+ * not zero), so the cloth's shape and elastic energy are kept (a teleport with a character).
+ * It is computed in double precision and the world's origin (`weft_world_get_origin`) is
+ * chosen again for where the cloth lands, so a teleport kilometres from zero keeps the edge
+ * lengths to the micrometre. `keep_velocity`
+ * 1: the velocities turn with it (`v ← R v`) and the motion goes on in the new frame; 0: the
+ * cloth is left at rest; anything else is `WEFT_RESULT_INVALID_ARGUMENT`. Pin targets move
+ * with the cloth (set them again if they should not); contacts are forgotten, colliders stay
+ * where they are. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_transform(struct WeftWorld *world,
+                                struct WeftQuat rotation,
+                                struct WeftVec3 translation,
+                                uint32_t keep_velocity,
+                                struct WeftErrorDetail *out_detail);
+
+/**
+ * Adds forces (newtons) to vertices `first .. first + count - 1` for the next
+ * `weft_world_step`: vertex `first + k` gets the 3 floats at byte `k * stride` of `src`
+ * (read unaligned, `stride` ≥ 12), added to what was applied since the last step. They act
+ * constantly over that step and are then cleared: apply a lasting force every frame. Their
+ * work enters the step's energy balance as input, like gravity's. Checks every value first
+ * (`WEFT_RESULT_NON_FINITE` names the vertex); nothing changes on failure. Wakes the world
+ * when any force is non-zero.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 12` bytes.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_add_forces(struct WeftWorld *world,
+                                 uint32_t first,
+                                 uint32_t count,
+                                 const void *src,
+                                 size_t stride,
+                                 struct WeftErrorDetail *out_detail);
+
+/**
+ * Applies impulses (newton-seconds) to vertices `first .. first + count - 1`, laid out as in
+ * `weft_world_add_forces`: each vertex's velocity changes by `impulse / mass` at once, so the
+ * next step starts from it (a pinned vertex stays held). Checks every value first; nothing
+ * changes on failure. Wakes the world when any impulse is non-zero.
+ *
+ * # Safety
+ * As `weft_world_add_forces`.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_add_impulses(struct WeftWorld *world,
+                                   uint32_t first,
+                                   uint32_t count,
+                                   const void *src,
+                                   size_t stride,
+                                   struct WeftErrorDetail *out_detail);
+
+/**
+ * Sets the mass scale of vertices `first .. first + count - 1`: vertex `first + k`'s mass
+ * becomes the lumped mass its triangles' density gives it times the float at byte
+ * `k * stride` of `src` (`stride` ≥ 4), e.g. 3 along a hem for a heavier edge. The step uses
+ * these masses for inertia, gravity and damping; scales replace earlier ones (1 restores the
+ * material's mass). A scale must be finite and > 0 and the mass it gives a normal `float`
+ * (`WEFT_RESULT_INVALID_ARGUMENT`, `detail.what` "scales", `detail.vertex` the vertex).
+ * Checks every value first; nothing changes on failure. Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
+ * `(count - 1) * stride + 4` bytes.
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_mass_scales(struct WeftWorld *world,
+                                      uint32_t first,
+                                      uint32_t count,
+                                      const void *src,
+                                      size_t stride,
+                                      struct WeftErrorDetail *out_detail);
+
+/**
+ * Pins vertex `vertex` to `target` (metres, in your coordinates) in every direction, or moves
+ * its pin there. The vertex travels to the target over the next step (linearly across
+ * substeps), so animate a pin by setting its target every frame. A new pin starts where the vertex is. Wakes the world when the target
  * changed. Pins hold only while `WEFT_EFFECT_PINS` is on.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_pin(struct WeftWorld *world, uint32_t vertex, struct WeftVec3 target);
+WeftResult weft_world_set_pin(struct WeftWorld *world,
+                              uint32_t vertex,
+                              struct WeftVec3 target,
+                              struct WeftErrorDetail *out_detail);
+
+/**
+ * Pins vertex `vertex` in one direction only: it stays in the plane through `target`
+ * (metres, in your coordinates) normal to `normal` (any length but zero; normalized) and moves freely, without
+ * friction, within it. Otherwise as `weft_world_set_pin` (it replaces any pin the vertex had;
+ * moving the target moves the plane). A pinned vertex ignores colliders. A zero normal is
+ * `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` "axis").
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_pin_plane(struct WeftWorld *world,
+                                    uint32_t vertex,
+                                    struct WeftVec3 target,
+                                    struct WeftVec3 normal,
+                                    struct WeftErrorDetail *out_detail);
+
+/**
+ * Pins vertex `vertex` in the two directions normal to `direction`: it stays on the line
+ * through `target` (metres, in your coordinates) along `direction` (any length but zero; normalized) and slides
+ * freely along it, like a curtain ring on a rail. Otherwise as `weft_world_set_pin_plane`.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_set_pin_line(struct WeftWorld *world,
+                                   uint32_t vertex,
+                                   struct WeftVec3 target,
+                                   struct WeftVec3 direction,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * Releases the pin of vertex `vertex` (no error when it had none). Wakes the world.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_remove_pin(struct WeftWorld *world, uint32_t vertex);
+WeftResult weft_world_remove_pin(struct WeftWorld *world,
+                                 uint32_t vertex,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Number of pinned vertices (0 for an invalid handle).
@@ -1383,36 +1740,58 @@ WeftResult weft_world_remove_pin(struct WeftWorld *world, uint32_t vertex);
 uint32_t weft_world_pin_count(const struct WeftWorld *world);
 
 /**
- * Adds a kinematic collider (the engine moves it; the cloth does not push back) and writes
- * its index (0, 1, 2 ... in order of addition) to `*out_index` when that is not NULL.
+ * Adds a kinematic collider (its shape in your coordinates; the engine moves it, the cloth
+ * does not push back) and writes
+ * its id to `*out_index` when that is not NULL. The id names the collider until it is removed,
+ * whatever else is added or removed (0, 1, 2 ... in order of addition; a removed collider's
+ * id is not given again).
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `def` is readable; a non-NULL
  * `out_index` is writable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_add_collider(struct WeftWorld *world,
                                    const struct WeftColliderDef *def,
-                                   uint32_t *out_index);
+                                   uint32_t *out_index,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
- * Moves collider `index` to `*shape` (same or another kind). The next step sweeps it linearly
- * from where it was at the last step (a change of kind teleports). Wakes the world when it
+ * Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (in your
+ * coordinates; same or another kind); an id of no collider is `WEFT_RESULT_UNKNOWN_COLLIDER`.
+ * The next step sweeps it linearly from where it was at the last step (a change of kind teleports). Wakes the world when it
  * moved.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `shape` is readable.
+ * A non-NULL `out_detail` is writable.
  */
 WeftResult weft_world_set_collider(struct WeftWorld *world,
                                    uint32_t index,
-                                   const struct WeftShape *shape);
+                                   const struct WeftShape *shape,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
- * Removes every collider. Wakes the world.
+ * Removes collider `id` (from `weft_world_add_collider`); the others keep their ids. An id
+ * that names no collider (never added, or removed already) is `WEFT_RESULT_UNKNOWN_COLLIDER`
+ * (`detail.index` the id). Wakes the world.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_clear_colliders(struct WeftWorld *world);
+WeftResult weft_world_remove_collider(struct WeftWorld *world,
+                                      uint32_t id,
+                                      struct WeftErrorDetail *out_detail);
+
+/**
+ * Removes every collider (their ids are not given again). Wakes the world.
+ *
+ * # Safety
+ * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
+ */
+WeftResult weft_world_clear_colliders(struct WeftWorld *world, struct WeftErrorDetail *out_detail);
 
 /**
  * Number of colliders (0 for an invalid handle).
@@ -1428,8 +1807,9 @@ uint32_t weft_world_collider_count(const struct WeftWorld *world);
  * `float`; at 10 km from zero a `float` resolves only ~1 mm, so slow motion would be rounded
  * away and a cloth there would never rest. The world therefore simulates relative to an
  * origin near the cloth, and every position you give or get (the def's positions,
- * `weft_world_set_positions` / `weft_world_get_positions`, pin targets, collider shapes, and
- * `weft_localize`'s output) is in your coordinates, converted through double precision, one
+ * `weft_world_set_positions` / `weft_world_get_positions` and their ranges,
+ * `weft_world_transform`, pin targets of every kind, collider shapes, and `weft_localize`'s
+ * output) is in your coordinates, converted through double precision, one
  * rounding each way. At create the origin is the centre of the cloth's bounding box rounded
  * to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 32 m of zero, where
  * nothing is converted. Velocities do not depend on it; the gravitational energy is measured
@@ -1437,8 +1817,11 @@ uint32_t weft_world_collider_count(const struct WeftWorld *world);
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_origin` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_get_origin(const struct WeftWorld *world, struct WeftDVec3 *out_origin);
+WeftResult weft_world_get_origin(const struct WeftWorld *world,
+                                 struct WeftDVec3 *out_origin,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Moves the world's origin (`weft_world_get_origin`) to `origin`, in your coordinates: e.g.
@@ -1449,8 +1832,11 @@ WeftResult weft_world_get_origin(const struct WeftWorld *world, struct WeftDVec3
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_set_origin(struct WeftWorld *world, struct WeftDVec3 origin);
+WeftResult weft_world_set_origin(struct WeftWorld *world,
+                                 struct WeftDVec3 origin,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * For an engine that recenters its own coordinates (as Jolt's and PhysX's "shift origin"):
@@ -1461,8 +1847,11 @@ WeftResult weft_world_set_origin(struct WeftWorld *world, struct WeftDVec3 origi
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_world_shift_origin(struct WeftWorld *world, struct WeftDVec3 shift);
+WeftResult weft_world_shift_origin(struct WeftWorld *world,
+                                   struct WeftDVec3 shift,
+                                   struct WeftErrorDetail *out_detail);
 
 /**
  * A `WeftLocalizeOutput` with every field at its default: no buffers yet (set `positions`,
@@ -1477,8 +1866,11 @@ struct WeftLocalizeOutput weft_default_localize_output(void);
  *
  * # Safety
  * `out_size` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_bind_memory_size(uint32_t fine_vertex_count, size_t *out_size);
+WeftResult weft_bind_memory_size(uint32_t fine_vertex_count,
+                                 size_t *out_size,
+                                 struct WeftErrorDetail *out_detail);
 
 /**
  * Binds a fine render mesh to the world's coarse cloth, once per mesh: for each fine vertex,
@@ -1525,8 +1917,12 @@ WeftResult weft_bind(const struct WeftWorld *world,
  *
  * # Safety
  * `bindings` is readable for `bindings_size` bytes; `out_count` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_bind_vertex_count(const void *bindings, size_t bindings_size, uint32_t *out_count);
+WeftResult weft_bind_vertex_count(const void *bindings,
+                                  size_t bindings_size,
+                                  uint32_t *out_count,
+                                  struct WeftErrorDetail *out_detail);
 
 /**
  * Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
@@ -1535,8 +1931,11 @@ WeftResult weft_bind_vertex_count(const void *bindings, size_t bindings_size, ui
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
+ * A non-NULL `out_detail` is writable.
  */
-WeftResult weft_localize_frames_size(const struct WeftWorld *world, size_t *out_size);
+WeftResult weft_localize_frames_size(const struct WeftWorld *world,
+                                     size_t *out_size,
+                                     struct WeftErrorDetail *out_detail);
 
 /**
  * Once per frame, after the step and before `weft_localize`: measures the coarse cloth's
@@ -1582,9 +1981,10 @@ WeftResult weft_localize_prepare(const struct WeftWorld *world,
  * - `out_detail`: NULL, or filled on every call.
  *
  * Everything is checked before anything is written: on failure no output byte changed.
- * Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
- * core), about 1.3 × that with blended normals, about 6 × with recomputed normals; with
- * `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
+ * Cost per fine vertex: a few ns for positions (about 110 M vertices/s on one core of a
+ * 2-core cloud machine, `examples/bench_localize.rs`), about 1.8 × that with blended normals
+ * (1.72 × measured there, 1.84 × by an outside client), about 6 × with recomputed normals;
+ * with `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
  * "Measured").
  *
  * # Safety

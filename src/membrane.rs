@@ -378,7 +378,7 @@ impl Element {
     /// through which it varies with them: `∂e/∂x_a` has rows `[a_u d1, a_v d2, a_u d2 + a_v d1]`
     /// (`(a_u, a_v) = ∇N_a`). Green: `d = (f1, f2)`; linear: the rest axes.
     #[inline]
-    fn measure(&self, x: [Vec3A; 3], strain: Strain) -> ([f32; 3], Vec3A, Vec3A) {
+    pub(crate) fn measure(&self, x: [Vec3A; 3], strain: Strain) -> ([f32; 3], Vec3A, Vec3A) {
         let (f1, f2) = self.deformation(x);
         match strain {
             Strain::Green => (

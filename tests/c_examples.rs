@@ -209,6 +209,67 @@ fn hello_c() {
     assert!(m1 > 5.0 * m0 && m0 > 0.0, "{s:?}");
 }
 
+/// The engine calls beyond create and step (`c_examples/engine_api.c`): each is checked in C
+/// against what it must do and prints "ok" or "WRONG".
+#[test]
+fn engine_api_c() {
+    let out = run_everywhere(
+        "engine_api.c",
+        &[],
+        &[
+            "a force changes the momentum by F dt: ok",
+            "forces last one step: ok",
+            "an impulse changes the momentum by J: ok",
+            "a heavier hem: ok",
+            "the curtain slides along its rail at g sin(theta): ok",
+            "a rail without a direction is refused: ok",
+            "a range of positions round-trips: ok",
+            "a teleport keeps the shape: ok",
+            "a teleport turns the velocities: ok",
+            "the other colliders keep their ids: ok",
+            "a removed collider's id is refused: ok",
+            "the world carries the engine's pointer: ok",
+            "a 10 % stretch along u reads back as E11 = 0.105: ok",
+            "strains past the last triangle are refused: ok",
+            "a cloth that could never step is refused: ok",
+            "engine_api: ok",
+        ],
+    );
+    print!("{out}");
+    assert!(!out.contains("WRONG") && !out.contains("FAILED"), "{out}");
+}
+
+/// The README's hanging cloth: at most 40 lines of C, the same text in the README as in
+/// `c_examples/hanging.c`, compiled and run like every example; the cloth hangs below its
+/// pinned top edge.
+#[test]
+fn readme_hanging_c() {
+    let source = std::fs::read_to_string(root().join("c_examples").join("hanging.c")).unwrap();
+    assert!(
+        source.lines().count() <= 40,
+        "{} lines",
+        source.lines().count()
+    );
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    assert!(
+        readme.contains(&format!("```c\n{source}```")),
+        "the README's hanging cloth differs from c_examples/hanging.c"
+    );
+    let out = run_everywhere(
+        "hanging.c",
+        &[],
+        &["hanging: the bottom corners are at z = "],
+    );
+    print!("{out}");
+    let z = numbers_after(&out, "hanging: the bottom corners are at z = ");
+    assert_eq!(z.len(), 2, "{out}");
+    assert!(z.iter().all(|&z| z < -0.2), "the cloth hangs: {z:?}");
+    assert!(
+        (z[0] - z[1]).abs() < 0.01,
+        "nearly symmetric (the diagonals are not): {z:?}"
+    );
+}
+
 #[test]
 fn engine_loop_c() {
     let obj = work_dir("engine_loop").join("last_frame.obj");
@@ -455,6 +516,7 @@ fn c_layout_matches_rust() {
     }
     layout!(WeftVec3 { x, y, z });
     layout!(WeftVec2 { x, y });
+    layout!(WeftQuat { x, y, z, w });
     layout!(WeftCapacity {
         max_vertices,
         max_triangles,
@@ -496,7 +558,8 @@ fn c_layout_matches_rust() {
         size,
         version,
         cell_count,
-        internal_cookie
+        internal_cookie,
+        reserved
     });
     layout!(WeftCellInfo {
         name,
@@ -522,9 +585,10 @@ fn c_layout_matches_rust() {
         position_stride,
         normals,
         normal_stride,
-        normal_mode,
         fine_indices,
+        normal_mode,
         fine_triangle_count,
+        collider_mode,
         internal_cookie
     });
     layout!(WeftStepStats {
@@ -547,6 +611,7 @@ fn c_layout_matches_rust() {
         index,
         needed,
         capacity,
+        reserved,
         what
     });
     checks += &format!(

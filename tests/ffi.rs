@@ -89,7 +89,7 @@ impl Block {
     fn for_capacity(cap: &WeftCapacity) -> Block {
         let mut size = 0;
         assert_eq!(
-            unsafe { weft_world_memory_size(cap, &mut size) },
+            unsafe { weft_world_memory_size(cap, &mut size, ptr::null_mut()) },
             WeftResult::Ok
         );
         Block {
@@ -162,7 +162,7 @@ fn result_strings_name_every_value() {
             assert!(seen.insert(s), "{v}: {s} is not unique");
         }
     }
-    assert_eq!(seen.len(), 58, "one string per WeftResult value");
+    assert_eq!(seen.len(), 60, "one string per WeftResult value");
     // Localization's results are 80–99.
     for v in 80..=92u32 {
         let s = unsafe { CStr::from_ptr(weft_result_string(v)) };
@@ -176,13 +176,13 @@ fn result_strings_name_every_value() {
 fn memory_size_is_checked_and_affine_in_the_capacity() {
     let mut size = 7usize;
     assert_eq!(
-        unsafe { weft_world_memory_size(ptr::null(), &mut size) },
+        unsafe { weft_world_memory_size(ptr::null(), &mut size, ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(size, 7);
     let cap = small_capacity();
     assert_eq!(
-        unsafe { weft_world_memory_size(&cap, ptr::null_mut()) },
+        unsafe { weft_world_memory_size(&cap, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
     // The overflow-checked evaluation equals the kernel's own count for assorted capacities.
@@ -207,7 +207,7 @@ fn memory_size_is_checked_and_affine_in_the_capacity() {
             pins: p,
         };
         assert_eq!(
-            unsafe { weft_world_memory_size(&c_cap, &mut size) },
+            unsafe { weft_world_memory_size(&c_cap, &mut size, ptr::null_mut()) },
             WeftResult::Ok
         );
         // The header and the kernel's arrays: no staging area (the kernel reads the caller's
@@ -637,7 +637,7 @@ fn blob_parse_reports_each_fault() {
     );
     let mut info = std::mem::MaybeUninit::<WeftCellInfo>::uninit();
     assert_eq!(
-        unsafe { weft_blob_cell_info(&blob, 0, info.as_mut_ptr()) },
+        unsafe { weft_blob_cell_info(&blob, 0, info.as_mut_ptr(), ptr::null_mut()) },
         WeftResult::Ok
     );
     let info = unsafe { info.assume_init() };
@@ -650,11 +650,11 @@ fn blob_parse_reports_each_fault() {
     );
     let mut info2 = std::mem::MaybeUninit::<WeftCellInfo>::uninit();
     assert_eq!(
-        unsafe { weft_blob_cell_info(&blob, 1, info2.as_mut_ptr()) },
+        unsafe { weft_blob_cell_info(&blob, 1, info2.as_mut_ptr(), ptr::null_mut()) },
         WeftResult::BlobCellOutOfRange
     );
     assert_eq!(
-        unsafe { weft_blob_cell_info(ptr::null(), 0, info2.as_mut_ptr()) },
+        unsafe { weft_blob_cell_info(ptr::null(), 0, info2.as_mut_ptr(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
 }
@@ -665,7 +665,7 @@ fn handles_that_are_not_worlds_are_refused() {
     let mut block = Block::for_capacity(&small_capacity());
     let w = live(&mesh, &mut block);
     assert_eq!(
-        unsafe { weft_world_step(ptr::null_mut(), 0.01, ptr::null_mut()) },
+        unsafe { weft_world_step(ptr::null_mut(), 0.01, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(unsafe { weft_world_vertex_count(ptr::null()) }, 0);
@@ -675,33 +675,42 @@ fn handles_that_are_not_worlds_are_refused() {
     let mut junk = vec![0x5au128; WEFT_WORLD_HEADER_SIZE / 16];
     let junk_world = junk.as_mut_ptr().cast::<WeftWorld>();
     assert_eq!(
-        unsafe { weft_world_step(junk_world, 0.01, ptr::null_mut()) },
+        unsafe { weft_world_step(junk_world, 0.01, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::InvalidHandle
     );
     assert_eq!(unsafe { weft_world_vertex_count(junk_world) }, 0);
     // A misaligned handle.
     let odd = unsafe { w.cast::<u8>().add(4) }.cast::<WeftWorld>();
-    assert_eq!(unsafe { weft_world_wake(odd) }, WeftResult::InvalidHandle);
+    assert_eq!(
+        unsafe { weft_world_wake(odd, ptr::null_mut()) },
+        WeftResult::InvalidHandle
+    );
 
     // A block copied elsewhere is not a world: its arrays still point into the original.
     let mut copy = block.words.clone();
     let copied = copy.as_mut_ptr().cast::<WeftWorld>();
     assert_eq!(
-        unsafe { weft_world_step(copied, 0.01, ptr::null_mut()) },
+        unsafe { weft_world_step(copied, 0.01, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::InvalidHandle
     );
 
     // A destroyed world.
     assert_eq!(
-        unsafe { weft_world_step(w, 0.01, ptr::null_mut()) },
+        unsafe { weft_world_step(w, 0.01, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::Ok
     );
-    assert_eq!(unsafe { weft_world_destroy(w) }, WeftResult::Ok);
     assert_eq!(
-        unsafe { weft_world_step(w, 0.01, ptr::null_mut()) },
+        unsafe { weft_world_destroy(w, ptr::null_mut()) },
+        WeftResult::Ok
+    );
+    assert_eq!(
+        unsafe { weft_world_step(w, 0.01, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::InvalidHandle
     );
-    assert_eq!(unsafe { weft_world_destroy(w) }, WeftResult::InvalidHandle);
+    assert_eq!(
+        unsafe { weft_world_destroy(w, ptr::null_mut()) },
+        WeftResult::InvalidHandle
+    );
 }
 
 /// An interleaved, packed vertex buffer: 1 flag byte, position, (u, v), 2 bytes of padding.
@@ -746,7 +755,10 @@ fn strided_unaligned_vertex_io_matches_the_kernel_bit_for_bit() {
     let (corner_a, corner_b) = (30u32, 35u32);
     for c in [corner_a, corner_b] {
         let p = mesh.positions[c as usize];
-        assert_eq!(unsafe { weft_world_set_pin(w, c, p) }, WeftResult::Ok);
+        assert_eq!(
+            unsafe { weft_world_set_pin(w, c, p, ptr::null_mut()) },
+            WeftResult::Ok
+        );
     }
 
     // The same cloth through the safe kernel.
@@ -783,16 +795,24 @@ fn strided_unaligned_vertex_io_matches_the_kernel_bit_for_bit() {
     for _ in 0..30 {
         let mut stats = WeftStepStats::default();
         assert_eq!(
-            unsafe { weft_world_step(w, 1.0 / 60.0, &mut stats) },
+            unsafe { weft_world_step(w, 1.0 / 60.0, &mut stats, ptr::null_mut()) },
             WeftResult::Ok
         );
         let ks = k.step_dt(1.0 / 60.0).unwrap();
         assert_eq!(
             (stats.iterations, stats.converged, stats.substeps),
-            (ks.iterations, ks.converged, ks.substeps)
+            (ks.iterations, u32::from(ks.converged), ks.substeps)
         );
     }
-    let r = unsafe { weft_world_get_positions(w, out[POS..].as_mut_ptr().cast(), 36, STRIDE) };
+    let r = unsafe {
+        weft_world_get_positions(
+            w,
+            out[POS..].as_mut_ptr().cast(),
+            36,
+            STRIDE,
+            ptr::null_mut(),
+        )
+    };
     assert_eq!(r, WeftResult::Ok);
     for (i, p) in k.positions().iter().enumerate() {
         assert_eq!(read_pos(&out, i), [p.x, p.y, p.z], "vertex {i}");
@@ -806,17 +826,21 @@ fn strided_unaligned_vertex_io_matches_the_kernel_bit_for_bit() {
 
     // Velocities, tightly packed.
     let mut vel = vec![WeftVec3::default(); 36];
-    let r = unsafe { weft_world_get_velocities(w, vel.as_mut_ptr().cast(), 36, 12) };
+    let r =
+        unsafe { weft_world_get_velocities(w, vel.as_mut_ptr().cast(), 36, 12, ptr::null_mut()) };
     assert_eq!(r, WeftResult::Ok);
     for (a, b) in vel.iter().zip(k.velocities()) {
         assert_eq!([a.x, a.y, a.z], [b.x, b.y, b.z]);
     }
 
     // Set positions from the strided buffer: a round trip, and a teleport.
-    let r = unsafe { weft_world_set_positions(w, buf[POS..].as_ptr().cast(), 36, STRIDE) };
+    let r = unsafe {
+        weft_world_set_positions(w, buf[POS..].as_ptr().cast(), 36, STRIDE, ptr::null_mut())
+    };
     assert_eq!(r, WeftResult::Ok);
     let mut back = vec![WeftVec3::default(); 36];
-    let r = unsafe { weft_world_get_positions(w, back.as_mut_ptr().cast(), 40, 12) };
+    let r =
+        unsafe { weft_world_get_positions(w, back.as_mut_ptr().cast(), 40, 12, ptr::null_mut()) };
     assert_eq!(r, WeftResult::Ok, "a larger buffer is fine");
     assert_eq!(back, mesh.positions);
 }
@@ -829,63 +853,71 @@ fn vertex_io_checks_counts_strides_and_values() {
     let mut buf = vec![WeftVec3::default(); 16];
     let p = buf.as_mut_ptr().cast();
     assert_eq!(
-        unsafe { weft_world_get_positions(w, p, 15, 12) },
+        unsafe { weft_world_get_positions(w, p, 15, 12, ptr::null_mut()) },
         WeftResult::CountMismatch
     );
     assert_eq!(
-        unsafe { weft_world_get_positions(w, p, 16, 11) },
+        unsafe { weft_world_get_positions(w, p, 16, 11, ptr::null_mut()) },
         WeftResult::InvalidArgument
     );
     assert_eq!(
-        unsafe { weft_world_get_positions(w, ptr::null_mut(), 16, 12) },
+        unsafe { weft_world_get_positions(w, ptr::null_mut(), 16, 12, ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(
-        unsafe { weft_world_get_positions(w, p, 16, usize::MAX / 8) },
+        unsafe { weft_world_get_positions(w, p, 16, usize::MAX / 8, ptr::null_mut()) },
         WeftResult::InvalidArgument
-    );
-    assert_eq!(
-        unsafe { weft_world_set_positions(w, p, 17, 12) },
-        WeftResult::CountMismatch
     );
     let mut d = weft_error_none();
     assert_eq!(
-        unsafe { weft_world_last_error_detail(w, &mut d) },
-        WeftResult::Ok
+        unsafe { weft_world_set_positions(w, p, 17, 12, &mut d) },
+        WeftResult::CountMismatch
     );
     assert_eq!((d.result, d.needed), (WeftResult::CountMismatch, 16));
+    // one channel for const calls too: a short output names the count it needs, and a
+    // success leaves an OK detail
+    assert_eq!(
+        unsafe { weft_world_get_positions(w, p, 15, 12, &mut d) },
+        WeftResult::CountMismatch
+    );
+    assert_eq!(
+        (d.result, d.needed, what(&d).as_str()),
+        (WeftResult::CountMismatch, 16, "count")
+    );
+    assert_eq!(
+        unsafe { weft_world_get_positions(w, p, 16, 12, &mut d) },
+        WeftResult::Ok
+    );
+    assert_eq!((d.result, d.needed), (WeftResult::Ok, WEFT_NONE));
 
     // A NaN anywhere: refused with its vertex, and nothing changed.
     assert_eq!(
-        unsafe { weft_world_get_positions(w, p, 16, 12) },
+        unsafe { weft_world_get_positions(w, p, 16, 12, ptr::null_mut()) },
         WeftResult::Ok
     );
     let before = buf.clone();
     let mut edited = buf.clone();
     edited[3].x = 5.0;
     edited[9].y = f32::NAN;
-    let r = unsafe { weft_world_set_positions(w, edited.as_ptr().cast(), 16, 12) };
+    let r = unsafe { weft_world_set_positions(w, edited.as_ptr().cast(), 16, 12, &mut d) };
     assert_eq!(r, WeftResult::NonFinite);
-    assert_eq!(
-        unsafe { weft_world_last_error_detail(w, &mut d) },
-        WeftResult::Ok
-    );
     assert_eq!((d.vertex, what(&d).as_str()), (9, "positions"));
     assert_eq!(
-        unsafe { weft_world_get_positions(w, p, 16, 12) },
+        unsafe { weft_world_get_positions(w, p, 16, 12, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(buf, before);
-    let r = unsafe { weft_world_set_velocities(w, edited.as_ptr().cast(), 16, 12) };
+    let r =
+        unsafe { weft_world_set_velocities(w, edited.as_ptr().cast(), 16, 12, ptr::null_mut()) };
     assert_eq!(r, WeftResult::NonFinite);
     edited[9].y = 0.0;
     assert_eq!(
-        unsafe { weft_world_set_velocities(w, edited.as_ptr().cast(), 16, 12) },
+        unsafe { weft_world_set_velocities(w, edited.as_ptr().cast(), 16, 12, ptr::null_mut()) },
         WeftResult::Ok
     );
     let mut vel = vec![WeftVec3::default(); 16];
     assert_eq!(
-        unsafe { weft_world_get_velocities(w, vel.as_mut_ptr().cast(), 16, 12) },
+        unsafe { weft_world_get_velocities(w, vel.as_mut_ptr().cast(), 16, 12, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(vel, edited);
@@ -897,75 +929,68 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     let mut block = Block::for_capacity(&small_capacity());
     let w = live(&mesh, &mut block);
     let mut d = weft_error_none();
-    let detail = |d: &mut WeftErrorDetail| {
-        assert_eq!(
-            unsafe { weft_world_last_error_detail(w, d) },
-            WeftResult::Ok
-        );
-    };
     let v = |x, y, z| WeftVec3 { x, y, z };
 
     // The solver.
     assert_eq!(
-        unsafe { weft_world_set_solver(w, 7) },
+        unsafe { weft_world_set_solver(w, 7, &mut d) },
         WeftResult::InvalidArgument
     );
-    detail(&mut d);
     assert_eq!(what(&d), "solver");
     assert_eq!(
-        unsafe { weft_world_set_solver(w, WEFT_SOLVER_BLOCK_JACOBI) },
+        unsafe { weft_world_set_solver(w, WEFT_SOLVER_BLOCK_JACOBI, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_set_solver(w, WEFT_SOLVER_MULTIGRID) },
+        unsafe { weft_world_set_solver(w, WEFT_SOLVER_MULTIGRID, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_set_solver(ptr::null_mut(), WEFT_SOLVER_MULTIGRID) },
+        unsafe { weft_world_set_solver(ptr::null_mut(), WEFT_SOLVER_MULTIGRID, ptr::null_mut()) },
         WeftResult::NullPointer
     );
 
     // Pins.
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 16, v(0.0, 0.0, 0.0)) },
+        unsafe { weft_world_set_pin(w, 16, v(0.0, 0.0, 0.0), &mut d) },
         WeftResult::VertexOutOfRange
     );
-    detail(&mut d);
     assert_eq!(d.vertex, 16);
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 3, v(f32::NAN, 0.0, 0.0)) },
+        unsafe { weft_world_set_pin(w, 3, v(f32::NAN, 0.0, 0.0), &mut d) },
         WeftResult::NonFinite
     );
-    detail(&mut d);
     assert_eq!((d.vertex, what(&d).as_str()), (3, "target"));
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 0, v(0.0, 0.0, 0.5)) },
+        unsafe { weft_world_set_pin(w, 0, v(0.0, 0.0, 0.5), ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 1, v(0.1, 0.0, 0.5)) },
+        unsafe { weft_world_set_pin(w, 1, v(0.1, 0.0, 0.5), ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 1, v(0.1, 0.0, 0.6)) },
+        unsafe { weft_world_set_pin(w, 1, v(0.1, 0.0, 0.6), ptr::null_mut()) },
         WeftResult::Ok,
         "moving a pin"
     );
     assert_eq!(
-        unsafe { weft_world_set_pin(w, 2, v(0.1, 0.0, 0.5)) },
+        unsafe { weft_world_set_pin(w, 2, v(0.1, 0.0, 0.5), &mut d) },
         WeftResult::PinCapacity
     );
-    detail(&mut d);
     assert_eq!((d.capacity, d.needed), (2, 3));
     assert_eq!(unsafe { weft_world_pin_count(w) }, 2);
-    assert_eq!(unsafe { weft_world_remove_pin(w, 1) }, WeftResult::Ok);
     assert_eq!(
-        unsafe { weft_world_remove_pin(w, 1) },
+        unsafe { weft_world_remove_pin(w, 1, ptr::null_mut()) },
+        WeftResult::Ok
+    );
+    assert_eq!(
+        unsafe { weft_world_remove_pin(w, 1, ptr::null_mut()) },
         WeftResult::Ok,
         "no pin is fine"
     );
     assert_eq!(
-        unsafe { weft_world_remove_pin(w, 99) },
+        unsafe { weft_world_remove_pin(w, 99, ptr::null_mut()) },
         WeftResult::VertexOutOfRange
     );
     assert_eq!(unsafe { weft_world_pin_count(w) }, 1);
@@ -975,98 +1000,101 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     let mut index = 77u32;
     c.shape.kind = 4; // not a WEFT_SHAPE_* value
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, &mut d) },
         WeftResult::InvalidArgument
     );
-    detail(&mut d);
     assert_eq!(what(&d), "shape.kind");
     c.shape = weft_shape_plane(v(0.0, 0.0, 2.0), 0.0);
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, ptr::null_mut()) },
         WeftResult::InvalidCollider
     );
     c.shape = weft_shape_sphere(v(0.0, 0.0, 0.0), -1.0);
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, ptr::null_mut()) },
         WeftResult::InvalidCollider
     );
     c.shape = weft_shape_capsule(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), 0.1);
     c.friction = -0.1;
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, &mut d) },
         WeftResult::InvalidCollider
     );
-    detail(&mut d);
     assert_eq!(what(&d), "friction");
     c.friction = 0.2;
     c.internal_cookie = 0;
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, ptr::null_mut()) },
         WeftResult::Uninitialized
     );
     c.internal_cookie = weft_default_collider_def().internal_cookie;
     assert_eq!(
-        unsafe { weft_world_add_collider(w, ptr::null(), &mut index) },
+        unsafe { weft_world_add_collider(w, ptr::null(), &mut index, ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(index, 77, "outputs are untouched on failure");
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(index, 0);
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, ptr::null_mut()) },
+        unsafe { weft_world_add_collider(w, &c, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_add_collider(w, &c, &mut index) },
+        unsafe { weft_world_add_collider(w, &c, &mut index, ptr::null_mut()) },
         WeftResult::ColliderCapacity
     );
     assert_eq!(unsafe { weft_world_collider_count(w) }, 2);
     let s = weft_shape_sphere(v(0.0, 0.0, 0.0), 0.1);
     assert_eq!(
-        unsafe { weft_world_set_collider(w, 2, &s) },
-        WeftResult::ColliderOutOfRange
+        unsafe { weft_world_set_collider(w, 2, &s, &mut d) },
+        WeftResult::UnknownCollider
     );
-    detail(&mut d);
     assert_eq!(d.index, 2);
     assert_eq!(
-        unsafe { weft_world_set_collider(w, 1, &s) },
+        unsafe { weft_world_set_collider(w, 1, &s, ptr::null_mut()) },
         WeftResult::Ok,
         "a change of kind"
     );
-    assert_eq!(unsafe { weft_world_clear_colliders(w) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_clear_colliders(w, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     assert_eq!(unsafe { weft_world_collider_count(w) }, 0);
 
     // Settings round trip; a bad one changes nothing.
     let mut s = weft_default_settings();
     assert_eq!(
-        unsafe { weft_world_get_settings(w, &mut s) },
+        unsafe { weft_world_get_settings(w, &mut s, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(s, weft_default_settings());
     s.substeps = 3;
     s.wind = v(1.0, 0.0, 0.0);
-    assert_eq!(unsafe { weft_world_set_settings(w, &s) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_set_settings(w, &s, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     let mut bad = s;
     bad.sleep_velocity = f32::NAN;
     assert_eq!(
-        unsafe { weft_world_set_settings(w, &bad) },
+        unsafe { weft_world_set_settings(w, &bad, ptr::null_mut()) },
         WeftResult::InvalidSetting
     );
     let mut now = weft_default_settings();
     assert_eq!(
-        unsafe { weft_world_get_settings(w, &mut now) },
+        unsafe { weft_world_get_settings(w, &mut now, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(now, s);
     assert_eq!(
-        unsafe { weft_world_set_effects(w, WEFT_EFFECT_ALL) },
+        unsafe { weft_world_set_effects(w, WEFT_EFFECT_ALL, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(
-        unsafe { weft_world_set_effects(w, WEFT_EFFECT_ALL + 1) },
+        unsafe { weft_world_set_effects(w, WEFT_EFFECT_ALL + 1, ptr::null_mut()) },
         WeftResult::InvalidSetting
     );
 
@@ -1077,18 +1105,21 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
     };
     for dt in [0.0, -1.0, f32::NAN, f32::INFINITY] {
         assert_eq!(
-            unsafe { weft_world_step(w, dt, &mut stats) },
+            unsafe { weft_world_step(w, dt, &mut stats, ptr::null_mut()) },
             WeftResult::InvalidTimeStep
         );
     }
     assert_eq!(stats.iterations, 12345, "outputs are untouched on failure");
     assert_eq!(
-        unsafe { weft_world_step(w, 1.0 / 60.0, &mut stats) },
+        unsafe { weft_world_step(w, 1.0 / 60.0, &mut stats, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(stats.substeps, 3);
-    assert!(stats.iterations > 0 && stats.converged);
-    assert_eq!(unsafe { weft_world_wake(w) }, WeftResult::Ok);
+    assert!(stats.iterations > 0 && stats.converged == 1);
+    assert_eq!(
+        unsafe { weft_world_wake(w, ptr::null_mut()) },
+        WeftResult::Ok
+    );
 }
 
 /// A world created 10 km away simulates around the origin it chose; positions in and out are
@@ -1103,25 +1134,86 @@ fn origin_is_chosen_at_create_and_converts_vertex_io() {
     let mut block = Block::for_capacity(&small_capacity());
     let w = live(&mesh, &mut block);
     let mut o = WeftDVec3::default();
-    assert_eq!(unsafe { weft_world_get_origin(w, &mut o) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_get_origin(w, &mut o, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     assert_eq!((o.x, o.y, o.z), (9984.0, 0.0, 0.0));
     assert_eq!(WEFT_ORIGIN_GRID, 64.0);
     let get = || {
         let mut out = vec![WeftVec3::default(); mesh.positions.len()];
         let n = out.len() as u32;
-        let r = unsafe { weft_world_get_positions(w, out.as_mut_ptr().cast(), n, 12) };
+        let r =
+            unsafe { weft_world_get_positions(w, out.as_mut_ptr().cast(), n, 12, ptr::null_mut()) };
         assert_eq!(r, WeftResult::Ok);
         out
     };
     assert_eq!(get(), mesh.positions, "the caller's positions, bit for bit");
+    // a range in and out, in the caller's coordinates
+    let mut range = [WeftVec3::default(); 3];
+    let get_range = |range: &mut [WeftVec3; 3]| unsafe {
+        weft_world_get_positions_range(w, 2, 3, range.as_mut_ptr().cast(), 12, ptr::null_mut())
+    };
+    assert_eq!(get_range(&mut range), WeftResult::Ok);
+    assert_eq!(range[..], mesh.positions[2..5]);
+    let lifted = range.map(|p| WeftVec3 { z: p.z + 0.25, ..p });
+    let r = unsafe {
+        weft_world_set_positions_range(w, 2, 3, lifted.as_ptr().cast(), 12, ptr::null_mut())
+    };
+    assert_eq!(r, WeftResult::Ok);
+    assert_eq!(get_range(&mut range), WeftResult::Ok);
+    assert_eq!(range, lifted);
+    let r = unsafe {
+        let n = mesh.positions.len() as u32;
+        weft_world_set_positions(w, mesh.positions.as_ptr().cast(), n, 12, ptr::null_mut())
+    };
+    assert_eq!(r, WeftResult::Ok);
+    // a teleport 5 km along x and back: exact here, and the origin follows the cloth
+    let teleport = |dx: f32| unsafe {
+        let identity = WeftQuat {
+            x: 0.0,
+            y: 0.0,
+            z: 0.0,
+            w: 1.0,
+        };
+        let t = WeftVec3 {
+            x: dx,
+            y: 0.0,
+            z: 0.0,
+        };
+        weft_world_transform(w, identity, t, 0, ptr::null_mut())
+    };
+    assert_eq!(teleport(5_000.0), WeftResult::Ok);
+    let there: Vec<WeftVec3> = mesh
+        .positions
+        .iter()
+        .map(|p| WeftVec3 {
+            x: p.x + 5_000.0,
+            ..*p
+        })
+        .collect();
+    assert_eq!(get(), there);
+    assert_eq!(
+        unsafe { weft_world_get_origin(w, &mut o, ptr::null_mut()) },
+        WeftResult::Ok
+    );
+    assert_eq!((o.x, o.y, o.z), (14_976.0, 0.0, 0.0));
+    assert_eq!(teleport(-5_000.0), WeftResult::Ok);
+    assert_eq!(get(), mesh.positions);
     let here = WeftDVec3 {
         x: 10_000.0,
         y: 0.0,
         z: 0.0,
     };
-    assert_eq!(unsafe { weft_world_set_origin(w, here) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_set_origin(w, here, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     assert_eq!(get(), mesh.positions);
-    assert_eq!(unsafe { weft_world_shift_origin(w, here) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_shift_origin(w, here, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     let shifted: Vec<WeftVec3> = mesh
         .positions
         .iter()
@@ -1136,18 +1228,21 @@ fn origin_is_chosen_at_create_and_converts_vertex_io() {
         ..here
     };
     assert_eq!(
-        unsafe { weft_world_set_origin(w, bad) },
+        unsafe { weft_world_set_origin(w, bad, ptr::null_mut()) },
         WeftResult::NonFinite
     );
     assert_eq!(
-        unsafe { weft_world_shift_origin(w, bad) },
+        unsafe { weft_world_shift_origin(w, bad, ptr::null_mut()) },
         WeftResult::NonFinite
     );
     assert_eq!(
-        unsafe { weft_world_get_origin(w, ptr::null_mut()) },
+        unsafe { weft_world_get_origin(w, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
-    assert_eq!(unsafe { weft_world_get_origin(w, &mut o) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_get_origin(w, &mut o, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     assert_eq!((o.x, o.y, o.z), (0.0, 0.0, 0.0));
 }
 
@@ -1208,11 +1303,14 @@ fn scene(n: usize, side: f32, frames: usize) -> Scene {
     assert_eq!(r, WeftResult::Ok, "{d:?}");
     for c in [(n * (n - 1)) as u32, (n * n - 1) as u32] {
         let p = mesh.positions[c as usize];
-        assert_eq!(unsafe { weft_world_set_pin(w, c, p) }, WeftResult::Ok);
+        assert_eq!(
+            unsafe { weft_world_set_pin(w, c, p, ptr::null_mut()) },
+            WeftResult::Ok
+        );
     }
     for _ in 0..frames {
         assert_eq!(
-            unsafe { weft_world_step(w, 1.0 / 60.0, ptr::null_mut()) },
+            unsafe { weft_world_step(w, 1.0 / 60.0, ptr::null_mut(), ptr::null_mut()) },
             WeftResult::Ok
         );
     }
@@ -1253,7 +1351,7 @@ impl Scene {
     fn bind(&self) -> (Vec<u32>, usize) {
         let mut size = 0;
         assert_eq!(
-            unsafe { weft_bind_memory_size(self.nv(), &mut size) },
+            unsafe { weft_bind_memory_size(self.nv(), &mut size, ptr::null_mut()) },
             WeftResult::Ok
         );
         let mut block = vec![0u32; size / 4];
@@ -1274,7 +1372,7 @@ impl Scene {
     fn frames(&self, measure: u32) -> Buf {
         let mut size = 0;
         assert_eq!(
-            unsafe { weft_localize_frames_size(self.w, &mut size) },
+            unsafe { weft_localize_frames_size(self.w, &mut size, ptr::null_mut()) },
             WeftResult::Ok
         );
         let mut f = Buf::new(size, 0xcd);
@@ -1285,7 +1383,15 @@ impl Scene {
     fn positions(&self) -> Vec<[f32; 3]> {
         let n = self.mesh.positions.len();
         let mut out = vec![[0.0f32; 3]; n];
-        let r = unsafe { weft_world_get_positions(self.w, out.as_mut_ptr().cast(), n as u32, 12) };
+        let r = unsafe {
+            weft_world_get_positions(
+                self.w,
+                out.as_mut_ptr().cast(),
+                n as u32,
+                12,
+                ptr::null_mut(),
+            )
+        };
         assert_eq!(r, WeftResult::Ok);
         out
     }
@@ -1425,7 +1531,9 @@ fn localization_matches_the_kernel_bit_for_bit() {
     assert_eq!(records, bytemuck::cast_slice::<Binding, u8>(&kb));
     let mut count = 0;
     assert_eq!(
-        unsafe { weft_bind_vertex_count(bindings.as_ptr().cast(), bsize, &mut count) },
+        unsafe {
+            weft_bind_vertex_count(bindings.as_ptr().cast(), bsize, &mut count, ptr::null_mut())
+        },
         WeftResult::Ok
     );
     assert_eq!(count as usize, nv);
@@ -1434,7 +1542,7 @@ fn localization_matches_the_kernel_bit_for_bit() {
     let mut frames = s.frames(WEFT_STRAIN_COROTATED);
     let mut fsize = 0;
     assert_eq!(
-        unsafe { weft_localize_frames_size(s.w, &mut fsize) },
+        unsafe { weft_localize_frames_size(s.w, &mut fsize, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(fsize, WEFT_LOCALIZE_FRAMES_HEADER_SIZE + 80 * 49);
@@ -1642,7 +1750,7 @@ fn localization_outside_colliders_matches_the_kernel_bit_for_bit() {
     let [x, y, z] = middle;
     def.shape = weft_shape_sphere(WeftVec3 { x, y, z }, 0.008);
     assert_eq!(
-        unsafe { weft_world_add_collider(s.w, &def, ptr::null_mut()) },
+        unsafe { weft_world_add_collider(s.w, &def, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::Ok
     );
     let centre = Vec3A::from(middle);
@@ -1702,11 +1810,11 @@ fn localization_errors_name_their_cause_and_write_nothing() {
     // --- weft_bind_memory_size, weft_bind
     let mut size = 7usize;
     assert_eq!(
-        unsafe { weft_bind_memory_size(3, ptr::null_mut()) },
+        unsafe { weft_bind_memory_size(3, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(
-        unsafe { weft_bind_memory_size(0, &mut size) },
+        unsafe { weft_bind_memory_size(0, &mut size, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(size, WEFT_BIND_HEADER_SIZE);
@@ -1792,7 +1900,7 @@ fn localization_errors_name_their_cause_and_write_nothing() {
     );
     let mut count = 0u32;
     assert_eq!(
-        unsafe { weft_bind_vertex_count(op, bsize, &mut count) },
+        unsafe { weft_bind_vertex_count(op, bsize, &mut count, ptr::null_mut()) },
         WeftResult::Ok
     );
     assert_eq!(count, nv / 2);
@@ -1824,21 +1932,31 @@ fn localization_errors_name_their_cause_and_write_nothing() {
         ),
     ] {
         let mut c = 99u32;
-        assert_eq!(unsafe { weft_bind_vertex_count(p, size, &mut c) }, want);
+        assert_eq!(
+            unsafe { weft_bind_vertex_count(p, size, &mut c, ptr::null_mut()) },
+            want
+        );
         assert_eq!(c, 99);
     }
     assert_eq!(
-        unsafe { weft_bind_vertex_count(bindings.as_ptr().cast(), bsize, ptr::null_mut()) },
+        unsafe {
+            weft_bind_vertex_count(
+                bindings.as_ptr().cast(),
+                bsize,
+                ptr::null_mut(),
+                ptr::null_mut(),
+            )
+        },
         WeftResult::NullPointer
     );
 
     // --- weft_localize_frames_size, weft_localize_prepare
     assert_eq!(
-        unsafe { weft_localize_frames_size(s.w, ptr::null_mut()) },
+        unsafe { weft_localize_frames_size(s.w, ptr::null_mut(), ptr::null_mut()) },
         WeftResult::NullPointer
     );
     assert_eq!(
-        unsafe { weft_localize_frames_size(junk_world, &mut size) },
+        unsafe { weft_localize_frames_size(junk_world, &mut size, ptr::null_mut()) },
         WeftResult::InvalidHandle
     );
     let fsize = WEFT_LOCALIZE_FRAMES_HEADER_SIZE + 25 * WEFT_LOCALIZE_FRAME_SIZE;
@@ -2259,7 +2377,10 @@ fn localization_errors_name_their_cause_and_write_nothing() {
         WeftResult::BindingsMismatch
     );
     // A destroyed world's frames are refused with its handle.
-    assert_eq!(unsafe { weft_world_destroy(w2) }, WeftResult::Ok);
+    assert_eq!(
+        unsafe { weft_world_destroy(w2, ptr::null_mut()) },
+        WeftResult::Ok
+    );
     assert_eq!(
         call(w2, f2.ptr(), bp, bsize, 0, nv, &good, &mut d),
         WeftResult::InvalidHandle

@@ -125,7 +125,7 @@ fn default_capacity_matches_the_kernel() {
 fn default_world_memory_size_matches_the_kernel() {
     let cap = weft_default_capacity();
     let mut size = 0usize;
-    let r = unsafe { weft_world_memory_size(&cap, &mut size) };
+    let r = unsafe { weft_world_memory_size(&cap, &mut size, std::ptr::null_mut()) };
     assert_eq!(r, WeftResult::Ok);
     let d = Capacity::DEFAULT;
     let expected = (WEFT_WORLD_HEADER_SIZE + d.world_bytes() + 15) & !15;

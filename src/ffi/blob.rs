@@ -2,7 +2,7 @@
 
 use core::ffi::{c_char, c_void};
 
-use super::convert::{done, out_ptr, read_ref, reparse, write_opt};
+use super::convert::{detailed, out_ptr, read_ref, reparse, write_opt};
 use super::result::{fault, invalid, FfiResult};
 use super::types::{WeftBlob, WeftCellInfo};
 use super::{WeftErrorDetail, WeftResult, BLOB_COOKIE};
@@ -33,6 +33,7 @@ pub unsafe extern "C" fn weft_blob_parse(
             version: 0,
             cell_count: 0,
             internal_cookie: BLOB_COOKIE,
+            reserved: 0,
         };
         // SAFETY: readability of data[..size] is the caller's contract.
         let blob = unsafe { reparse(&b) }?;
@@ -57,39 +58,45 @@ pub unsafe extern "C" fn weft_blob_parse(
 /// # Safety
 /// `blob` points to a `WeftBlob` filled by `weft_blob_parse` whose bytes are still valid;
 /// `out_info` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_blob_cell_info(
     blob: *const WeftBlob,
     cell: u32,
     out_info: *mut WeftCellInfo,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: readable per the contract.
-        let b = unsafe { read_ref(blob, c"blob") }?;
-        let out = out_ptr(out_info, c"out_info")?;
-        // SAFETY: the bytes are valid per the contract.
-        let parsed = unsafe { reparse(b) }?;
-        let c = parsed
-            .cell(cell as usize)
-            .ok_or(fault(WeftResult::BlobCellOutOfRange).cell(cell))?;
-        let mut name = [0 as c_char; 64];
-        for (d, s) in name.iter_mut().zip(c.name.bytes().take(63)) {
-            *d = s as c_char;
-        }
-        let info = WeftCellInfo {
-            name,
-            width: c.width(),
-            height: c.height(),
-            cols: c.cols,
-            rows: c.rows,
-            refine: c.refine,
-            node_count: u32::try_from(c.nodes.len()).unwrap_or(u32::MAX),
-            stiffness: c.stiffness,
-            density: c.density,
-            bending: c.bending,
-        };
-        // SAFETY: checked non-null and aligned; writable per the contract.
-        unsafe { out.write(info) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: readable per the contract.
+            let b = unsafe { read_ref(blob, c"blob") }?;
+            let out = out_ptr(out_info, c"out_info")?;
+            // SAFETY: the bytes are valid per the contract.
+            let parsed = unsafe { reparse(b) }?;
+            let c = parsed
+                .cell(cell as usize)
+                .ok_or(fault(WeftResult::BlobCellOutOfRange).cell(cell))?;
+            let mut name = [0 as c_char; 64];
+            for (d, s) in name.iter_mut().zip(c.name.bytes().take(63)) {
+                *d = s as c_char;
+            }
+            let info = WeftCellInfo {
+                name,
+                width: c.width(),
+                height: c.height(),
+                cols: c.cols,
+                rows: c.rows,
+                refine: c.refine,
+                node_count: u32::try_from(c.nodes.len()).unwrap_or(u32::MAX),
+                stiffness: c.stiffness,
+                density: c.density,
+                bending: c.bending,
+            };
+            // SAFETY: checked non-null and aligned; writable per the contract.
+            unsafe { out.write(info) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }

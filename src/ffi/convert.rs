@@ -134,7 +134,6 @@ pub(super) unsafe fn strided_out<'a, const N: usize>(
     StridedMut::new(bytes, stride, count).map_err(|_| invalid(stride_what))
 }
 
-/// Copies vectors to a strided output (positions, velocities).
 pub(super) fn vec3(v: WeftVec3) -> [f32; 3] {
     [v.x, v.y, v.z]
 }
@@ -234,9 +233,9 @@ pub(super) fn stats_to_c(s: &StepStats) -> WeftStepStats {
     WeftStepStats {
         iterations: s.iterations,
         residual: s.residual,
-        converged: s.converged,
+        converged: s.converged.into(),
         substeps: s.substeps,
-        asleep: s.asleep,
+        asleep: s.asleep.into(),
         contacts: s.contacts,
         redone: s.redone,
         energy_removed: s.energy_removed,
@@ -279,32 +278,16 @@ pub(super) unsafe fn world_mut<'a>(w: *mut WeftWorld) -> FfiResult<&'a mut WeftW
     Ok(unsafe { &mut *w })
 }
 
-/// Runs `f` on a live world, recording a failure as its last error.
+/// Runs `f` on a live world.
 ///
 /// # Safety
 /// As [`world_mut`].
 pub(super) unsafe fn with_world(
     w: *mut WeftWorld,
     f: impl FnOnce(&mut WeftWorld) -> FfiResult<()>,
-) -> WeftResult {
+) -> FfiResult<()> {
     // SAFETY: forwarded contract.
-    match unsafe { world_mut(w) } {
-        Ok(ww) => match f(ww) {
-            Ok(()) => WeftResult::Ok,
-            Err(d) => {
-                ww.last_error = d;
-                d.result
-            }
-        },
-        Err(d) => d.result,
-    }
-}
-
-pub(super) fn done(r: FfiResult<()>) -> WeftResult {
-    match r {
-        Ok(()) => WeftResult::Ok,
-        Err(d) => d.result,
-    }
+    f(unsafe { world_mut(w) }?)
 }
 
 /// Parses a C blob descriptor again (a `WeftBlob` is only a view; the bytes are re-validated
@@ -332,7 +315,8 @@ pub(super) fn count32(n: usize) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
-/// Writes the detail of a call that reports through an `out_detail` argument.
+/// The one error channel: every call returning a `WeftResult` writes its detail (`OK` with
+/// no index on success) to its last argument, `out_detail`, unless that is NULL.
 ///
 /// # Safety
 /// `out_detail` is NULL or writable.

@@ -127,19 +127,25 @@ pub extern "C" fn weft_default_localize_output() -> WeftLocalizeOutput {
 ///
 /// # Safety
 /// `out_size` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_bind_memory_size(
     fine_vertex_count: u32,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        let out = out_ptr(out_size, c"out_size")?;
-        let size = blocks::bindings_bytes(fine_vertex_count as usize)
-            .ok_or(fault(WeftResult::CapacityTooLarge))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(size) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            let out = out_ptr(out_size, c"out_size")?;
+            let size = blocks::bindings_bytes(fine_vertex_count as usize)
+                .ok_or(fault(WeftResult::CapacityTooLarge))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(size) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Binds a fine render mesh to the world's coarse cloth, once per mesh: for each fine vertex,
@@ -209,20 +215,26 @@ pub unsafe extern "C" fn weft_bind(
 ///
 /// # Safety
 /// `bindings` is readable for `bindings_size` bytes; `out_count` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_bind_vertex_count(
     bindings: *const c_void,
     bindings_size: usize,
     out_count: *mut u32,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        let out = out_ptr(out_count, c"out_count")?;
-        // SAFETY: forwarded contract.
-        let (_, records) = unsafe { bindings_block(bindings, bindings_size) }?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(count32(records.len())) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            let out = out_ptr(out_count, c"out_count")?;
+            // SAFETY: forwarded contract.
+            let (_, records) = unsafe { bindings_block(bindings, bindings_size) }?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(count32(records.len())) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Bytes of a frames block for this world, in `*out_size`: `WEFT_LOCALIZE_FRAMES_HEADER_SIZE +
@@ -231,21 +243,27 @@ pub unsafe extern "C" fn weft_bind_vertex_count(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out_size` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_localize_frames_size(
     world: *const WeftWorld,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_size, c"out_size")?;
-        let size =
-            blocks::frames_bytes(w.world.vertex_count()).ok_or(fault(WeftResult::Internal))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(size) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_at(world) }?;
+            let out = out_ptr(out_size, c"out_size")?;
+            let size =
+                blocks::frames_bytes(w.world.vertex_count()).ok_or(fault(WeftResult::Internal))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(size) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Once per frame, after the step and before `weft_localize`: measures the coarse cloth's
@@ -336,9 +354,10 @@ pub unsafe extern "C" fn weft_localize_prepare(
 /// - `out_detail`: NULL, or filled on every call.
 ///
 /// Everything is checked before anything is written: on failure no output byte changed.
-/// Cost per fine vertex: a few ns for positions (about 150 M vertices/s on one desktop
-/// core), about 1.3 × that with blended normals, about 6 × with recomputed normals; with
-/// `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
+/// Cost per fine vertex: a few ns for positions (about 110 M vertices/s on one core of a
+/// 2-core cloud machine, `examples/bench_localize.rs`), about 1.8 × that with blended normals
+/// (1.72 × measured there, 1.84 × by an outside client), about 6 × with recomputed normals;
+/// with `WEFT_COLLIDERS_OUTSIDE` each collider adds a distance query per vertex (README,
 /// "Measured").
 ///
 /// # Safety

@@ -46,6 +46,8 @@ mod edit;
 
 mod localize;
 
+mod layout;
+
 pub use blob::*;
 pub use edit::*;
 pub use localize::*;
@@ -123,7 +125,7 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// in bytes, a multiple of `WEFT_WORLD_MEMORY_ALIGN`: lets a default-capacity world live in a
 /// static array. It changes between library versions; query `weft_world_memory_size` for any
 /// other capacity.
-pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_926_560;
+pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_995_216;
 
 /// A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
 /// of this many metres (`weft_world_get_origin`).
@@ -133,11 +135,19 @@ pub const WEFT_ORIGIN_GRID: f64 = 64.0;
 /// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I
 /// (Biot) and R carries the micro displacement into 3D, so the fine pattern follows the cell
 /// problem's linear solution; use this one unless you want the paper verbatim. (The coarse step
-/// itself measures Green strain; the two agree to first order.)
+/// itself measures Green strain; the two agree to first order.) Either measure takes one
+/// strain per coarse triangle (blended to its vertices): where the macro strain varies across
+/// a triangle (e.g. a stiff laminate hanging under its own weight, strain rising by `S ρ g` per
+/// metre up the cloth, `S` the compliance along the pull, `ρ` the areal density) a layer's
+/// strain is off by up to `± S ρ g t / 2` for a triangle `t` metres tall: refine the coarse
+/// cloth where that matters.
 pub const WEFT_STRAIN_COROTATED: u32 = 0;
 /// `strain_measure` of `weft_localize_prepare`: the paper verbatim, Green strain (FᵀF - I)/2
-/// (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order;
-/// overshoots the micro fluctuation slightly under stretch.
+/// (Eq. 19) carried into 3D by F itself. Agrees with `WEFT_STRAIN_COROTATED` to first order
+/// only: under stretch it overshoots the micro fluctuation, and the stiff layers' small strain
+/// comes out far too small — by 7 % at 1 % stretch and 14 % at 2 % across a 10:1 laminate
+/// (tests/localize.rs), and by 62 % on the hard layer at 1 % stretch of a stiffer laminate (an
+/// outside measurement). Use it only to reproduce the paper.
 pub const WEFT_STRAIN_GREEN: u32 = 1;
 
 /// `weft_world_set_solver`: CG preconditioned by an aggregation multigrid V-cycle (the default).
@@ -146,7 +156,8 @@ pub const WEFT_SOLVER_MULTIGRID: u32 = 0;
 pub const WEFT_SOLVER_BLOCK_JACOBI: u32 = 1;
 
 /// `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
-/// vertex normals (smooth, cheap: about 1.3 × the cost of positions alone).
+/// vertex normals (smooth; about 1.8 × the cost of positions alone: 1.72 × measured by
+/// `examples/bench_localize.rs`, 1.84 × by an outside client).
 pub const WEFT_NORMALS_BLENDED: u32 = 0;
 /// `WeftLocalizeOutput.normal_mode`: normals recomputed from the localized fine triangles
 /// (`WeftLocalizeOutput.fine_indices`), so they show the micro pattern's relief; about 6 × the

@@ -89,6 +89,10 @@ pub enum WeftResult {
     /// Triangle `detail.triangle` is so large or so small in (u, v) that its area or mass does
     /// not fit a 32-bit float.
     MeshUvOutOfRange = 42,
+    /// The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
+    /// elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
+    /// positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+    MeshStrainOutOfRange = 43,
 
     /// The blob is shorter than its header, or than the size its header announces, or longer
     /// (`detail.what` says which): a truncated or padded file.
@@ -111,10 +115,11 @@ pub enum WeftResult {
     /// `weft_blob_cell_info` was asked for a cell ≥ the blob's cell count (`detail.cell`).
     BlobCellOutOfRange = 57,
 
-    /// Vertex `detail.vertex` is ≥ the world's vertex count.
+    /// Vertex `detail.vertex` is ≥ the world's vertex count (for a range, the last vertex
+    /// asked for, and `detail.needed` the vertex count).
     VertexOutOfRange = 60,
-    /// Collider `detail.index` does not exist.
-    ColliderOutOfRange = 61,
+    /// No collider has the id `detail.index`: it was never added, or it was removed.
+    UnknownCollider = 61,
     /// A collider's numbers are invalid: non-finite, radius ≤ 0, a plane normal that is not unit
     /// length (±0.001), friction or thickness < 0. `detail.what` names the field when known.
     InvalidCollider = 62,
@@ -134,6 +139,8 @@ pub enum WeftResult {
     /// wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
     /// beyond f32 resolution. The world kept the state it had before the step.
     Unstable = 68,
+    /// A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
+    TriangleOutOfRange = 69,
 
     /// `weft_bind`: fine vertex `detail.vertex` lies outside the coarse cloth's (u, v) layout
     /// (beyond a relative tolerance of 1e-5), or its (u, v) is NaN or infinite.
@@ -178,9 +185,10 @@ pub enum WeftResult {
     TiledMeshCapacity = 92,
 }
 
-/// Where a failure is: filled by `weft_world_create` and `weft_blob_parse` (when their
-/// `out_detail` is not NULL) and by `weft_world_last_error_detail`. Which fields apply is said
-/// by each `WeftResult` value; the others are `WEFT_NONE` (indices) or "" (`what`).
+/// Where a failure is: written by every call that returns a `WeftResult` to its last argument,
+/// `out_detail`, when that is not NULL (the one error channel; see the top of this header).
+/// Which fields apply is said by each `WeftResult` value; the others are `WEFT_NONE` (indices)
+/// or "" (`what`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WeftErrorDetail {
@@ -202,6 +210,8 @@ pub struct WeftErrorDetail {
     pub needed: u32,
     /// The capacity that was too small.
     pub capacity: u32,
+    /// Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+    pub reserved: u32,
     /// A static, NUL-terminated string naming the argument, field or check; never NULL, owned
     /// by the library.
     pub what: *const c_char,
@@ -219,6 +229,7 @@ impl WeftErrorDetail {
             index: WEFT_NONE,
             needed: WEFT_NONE,
             capacity: WEFT_NONE,
+            reserved: 0,
             what: EMPTY.as_ptr(),
         }
     }
@@ -313,6 +324,9 @@ fn message(result: WeftResult) -> &'static CStr {
         R::InvalidSetting => c"setting out of range",
         R::MeshUnusedVertex => c"a vertex belongs to no triangle",
         R::MeshUvOutOfRange => c"a triangle's (u, v) size does not fit a 32-bit float",
+        R::MeshStrainOutOfRange => {
+            c"a triangle is stretched from its (u, v) beyond what a 32-bit float holds"
+        }
         R::BlobSize => c"blob size does not match its header",
         R::BlobBadMagic => c"not a weft cell blob",
         R::BlobVersion => c"unsupported blob version",
@@ -322,7 +336,8 @@ fn message(result: WeftResult) -> &'static CStr {
         R::BlobInvalidCell => c"blob cell holds invalid data",
         R::BlobCellOutOfRange => c"blob cell index out of range",
         R::VertexOutOfRange => c"vertex index out of range",
-        R::ColliderOutOfRange => c"collider index out of range",
+        R::TriangleOutOfRange => c"triangle range out of range",
+        R::UnknownCollider => c"no collider has that id (never added, or removed)",
         R::InvalidCollider => c"invalid collider",
         R::NonFinite => c"value not finite",
         R::InvalidTimeStep => c"time step not finite and positive",
@@ -415,6 +430,9 @@ pub(super) fn init_fault(e: InitError) -> Fault {
             f
         }
         InitError::InvalidSetting { field } => fault(R::InvalidSetting).what(setting_name(field)),
+        InitError::StrainOutOfRange { triangle } => {
+            fault(R::MeshStrainOutOfRange).triangle(triangle)
+        }
         InitError::Internal => fault(R::Internal),
     }
 }
@@ -440,8 +458,12 @@ pub(super) fn edit_fault(e: EditError, w: &World<'_>) -> Fault {
         EditError::ColliderCapacity => {
             fault(R::ColliderCapacity).needed(cap.colliders + 1, cap.colliders)
         }
-        EditError::ColliderOutOfRange => fault(R::ColliderOutOfRange),
+        EditError::UnknownCollider => fault(R::UnknownCollider),
         EditError::InvalidCollider => fault(R::InvalidCollider),
+        EditError::InvalidMassScale { vertex } => invalid(c"scales").vertex(vertex),
+        EditError::InvalidAxis => invalid(c"axis"),
+        EditError::InvalidRotation => invalid(c"rotation"),
+        EditError::TriangleOutOfRange => fault(R::TriangleOutOfRange),
     }
 }
 

@@ -2,7 +2,6 @@
 
 use core::ffi::{c_char, c_void};
 
-use super::result::WeftErrorDetail;
 use crate::blob::Blob;
 use crate::world::World;
 
@@ -27,6 +26,21 @@ pub struct WeftVec2 {
     pub x: f32,
     /// v, metres.
     pub y: f32,
+}
+
+/// A rotation as a unit quaternion `w + x i + y j + z k` (a non-unit one is normalized).
+/// 16 bytes, no padding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeftQuat {
+    /// i component.
+    pub x: f32,
+    /// j component.
+    pub y: f32,
+    /// k component.
+    pub z: f32,
+    /// Real component (1 for no rotation).
+    pub w: f32,
 }
 
 /// How much a world holds, fixed at create; `weft_world_memory_size` turns it into bytes.
@@ -112,8 +126,10 @@ pub struct WeftWorldDef {
     /// Number of triangles, ≤ `capacity.max_triangles`. Default 0 (must be set).
     pub triangle_count: u32,
     /// Triangle vertex indices, 3 × `triangle_count` tightly packed `uint32_t` (4-aligned).
-    /// Orientation is free but must be consistent across the sheet. NULL only when
-    /// `triangle_count` is 0.
+    /// Orientation (index order) is free, triangle by triangle: weft orients every triangle by
+    /// its (u, v) layout, so a triangle listed in either order simulates identically. What must
+    /// hold is that the (u, v) layout does not fold over itself
+    /// (`WEFT_RESULT_MESH_FOLDED_UV`). NULL only when `triangle_count` is 0.
     pub indices: *const u32,
     /// Per-triangle material: the index of a cell in the blob, `triangle_count` tightly packed
     /// `uint32_t` (4-aligned). NULL: every triangle uses `material`. Default NULL.
@@ -144,6 +160,8 @@ pub struct WeftBlob {
     pub cell_count: u32,
     /// Set by `weft_blob_parse`; do not touch.
     pub internal_cookie: u32,
+    /// Zero; reserved (it makes the struct's 64-bit layout free of hidden padding).
+    pub reserved: u32,
 }
 
 /// What a blob cell is, for tools and logs (`weft_blob_cell_info`).
@@ -214,13 +232,13 @@ pub struct WeftStepStats {
     pub iterations: u32,
     /// Largest final relative residual over substeps.
     pub residual: f32,
-    /// Every substep's solve reached `settings.tolerance` (false: it stopped at
+    /// 1 when every substep's solve reached `settings.tolerance` (0: it stopped at
     /// `max_iterations`; the step is still valid, only less accurate).
-    pub converged: bool,
+    pub converged: u32,
     /// Substeps taken (0 when asleep).
     pub substeps: u32,
-    /// The world was asleep and did nothing.
-    pub asleep: bool,
+    /// 1 when the world was asleep and did nothing, else 0.
+    pub asleep: u32,
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
     /// Times the step was redone with twice the substeps because its end state held energy
@@ -261,9 +279,6 @@ pub struct WeftLocalizeOutput {
     pub normals: *mut c_void,
     /// Bytes from one normal to the next, ≥ 12. Default 12.
     pub normal_stride: usize,
-    /// `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
-    /// `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
-    pub normal_mode: u32,
     /// `WEFT_NORMALS_RECOMPUTED` only: the fine triangles, 3 × `fine_triangle_count` tightly
     /// packed `uint32_t` (4-aligned) indices *relative to this call's range* (index k is
     /// binding `first + k`, so every index is < `count`). Counter-clockwise in (u, v), as
@@ -273,12 +288,16 @@ pub struct WeftLocalizeOutput {
     /// every triangle around a vertex: localize the whole mesh in one call, or give each range
     /// the triangles of its vertices. Default NULL.
     pub fine_indices: *const u32,
+    /// `WEFT_NORMALS_BLENDED` (default) or `WEFT_NORMALS_RECOMPUTED`; anything else is
+    /// `WEFT_RESULT_INVALID_ARGUMENT`. Ignored when `normals` is NULL.
+    pub normal_mode: u32,
     /// Number of triangles at `fine_indices`. Default 0.
     pub fine_triangle_count: u32,
     /// `WEFT_COLLIDERS_IGNORED` (default) or `WEFT_COLLIDERS_OUTSIDE` (fine vertices pushed
     /// out of the world's colliders); anything else is `WEFT_RESULT_INVALID_ARGUMENT`.
     pub collider_mode: u32,
-    /// Set by `weft_default_localize_output`; do not touch.
+    /// Set by `weft_default_localize_output`; do not touch. (With `collider_mode` it ends the
+    /// struct on an 8-byte boundary: no hidden padding.)
     pub internal_cookie: u32,
 }
 
@@ -298,6 +317,6 @@ pub struct WeftWorld {
     /// Key of the cloth (mesh, rest (u, v), materials, blob) that bindings and frames carry
     /// (`localize::blocks::cloth_key`, computed once at create).
     pub(super) cloth_key: u64,
-    /// The last failure of a call that took this world mutably.
-    pub(super) last_error: WeftErrorDetail,
+    /// The engine's pointer (`weft_world_set_user_data`); never read by weft.
+    pub(super) user_data: *mut c_void,
 }

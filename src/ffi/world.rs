@@ -6,7 +6,7 @@ use core::mem::size_of;
 use core::ptr;
 
 use super::convert::*;
-use super::result::{fault, init_fault, invalid, null, step_fault, FfiResult};
+use super::result::{fault, init_fault, invalid, mesh_fault, null, step_fault, FfiResult};
 use super::types::*;
 use super::*;
 use crate::localize::blocks;
@@ -142,25 +142,99 @@ fn block_layout(c: &Capacity) -> Option<BlockLayout> {
     (total <= isize::MAX as usize).then_some(BlockLayout { world_bytes, total })
 }
 
+/// Fills caller buffers with a regular grid cloth, the quickest way to a first cloth:
+/// `columns × rows` vertices (both ≥ 2) spanning `width × height` metres (finite, > 0), vertex
+/// `j * columns + i` at `(u, v) = (width * i / (columns - 1), height * j / (rows - 1))`,
+/// written both as its position `(u, v, 0)` (flat at z = 0; move or rotate it as you like)
+/// and as its (u, v); each square split into two triangles along its lower-left to
+/// upper-right diagonal, `6 * (columns - 1) * (rows - 1)` indices in all. Hand the buffers to
+/// a `WeftWorldDef` with `vertex_count = columns * rows` and
+/// `triangle_count = 2 * (columns - 1) * (rows - 1)`.
+///
+/// # Safety
+/// `positions` is writable for `columns * rows` `WeftVec3`, `uvs` for as many `WeftVec2`,
+/// `indices` for `6 * (columns - 1) * (rows - 1)` `uint32_t`; none overlap.
+/// A non-NULL `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_grid(
+    columns: u32,
+    rows: u32,
+    width: f32,
+    height: f32,
+    positions: *mut WeftVec3,
+    uvs: *mut WeftVec2,
+    indices: *mut u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    let r = (|| {
+        if columns < 2 {
+            return Err(invalid(c"columns"));
+        }
+        if rows < 2 {
+            return Err(invalid(c"rows"));
+        }
+        if !(width.is_finite() && width > 0.0) {
+            return Err(invalid(c"width"));
+        }
+        if !(height.is_finite() && height > 0.0) {
+            return Err(invalid(c"height"));
+        }
+        let (nx, ny) = (columns as usize, rows as usize);
+        // (every vertex index must fit a uint32_t, and every count an isize)
+        let nv = columns
+            .checked_mul(rows)
+            .ok_or(invalid(c"columns * rows"))? as usize;
+        let nt = (nx - 1)
+            .checked_mul(ny - 1)
+            .and_then(|s| s.checked_mul(2))
+            .filter(|&nt| nt.checked_mul(12).is_some_and(|b| b <= isize::MAX as usize))
+            .ok_or(invalid(c"columns * rows"))?;
+        let positions = out_ptr(positions, c"positions")?;
+        let uvs = out_ptr(uvs, c"uvs")?;
+        let indices = out_ptr(indices, c"indices")?;
+        // SAFETY: non-NULL and aligned (checked), writable for these counts and disjoint per
+        // the contract; WeftVec3 / WeftVec2 are 3 / 2 f32 with no padding, as [f32; 3] / [f32; 2]
+        // (src/ffi/layout.rs), and a triangle is 3 packed u32.
+        let (positions, uvs, triangles) = unsafe {
+            (
+                core::slice::from_raw_parts_mut(positions.cast::<[f32; 3]>(), nv),
+                core::slice::from_raw_parts_mut(uvs.cast::<[f32; 2]>(), nv),
+                core::slice::from_raw_parts_mut(indices.cast::<[u32; 3]>(), nt),
+            )
+        };
+        crate::mesh::grid(nx, ny, width, height, positions, uvs, triangles).map_err(mesh_fault)?;
+        Ok(())
+    })();
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
+}
+
 /// Bytes a world of `*capacity` needs (header and arrays), a multiple of
 /// `WEFT_WORLD_MEMORY_ALIGN`, in `*out_size`.
 ///
 /// # Safety
 /// `capacity` is readable, `out_size` writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_memory_size(
     capacity: *const WeftCapacity,
     out_size: *mut usize,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: readable per the contract.
-        let c = unsafe { read_ref(capacity, c"capacity") }?;
-        let out = out_ptr(out_size, c"out_size")?;
-        let layout = block_layout(&capacity_of(c)).ok_or(fault(WeftResult::CapacityTooLarge))?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(layout.total) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: readable per the contract.
+            let c = unsafe { read_ref(capacity, c"capacity") }?;
+            let out = out_ptr(out_size, c"out_size")?;
+            let layout =
+                block_layout(&capacity_of(c)).ok_or(fault(WeftResult::CapacityTooLarge))?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(layout.total) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Required alignment (bytes) of a world's memory block: `WEFT_WORLD_MEMORY_ALIGN`.
@@ -316,7 +390,7 @@ unsafe fn create(
             world,
             blob: parsed,
             cloth_key,
-            last_error: WeftErrorDetail::of(R::Ok),
+            user_data: core::ptr::null_mut(),
         });
         out.write(handle);
     }
@@ -330,34 +404,22 @@ unsafe fn create(
 /// # Safety
 /// `world` is NULL or points to readable, writable memory of at least `WEFT_WORLD_HEADER_SIZE`
 /// bytes.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_destroy(world: *mut WeftWorld) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_mut(world) }?;
-        w.cookie = 0;
-        Ok(())
-    })())
-}
-
-/// The detail of the last failed call on `world` (calls taking a non-const `WeftWorld*`),
-/// or `WEFT_RESULT_OK` with every index `WEFT_NONE` when none has failed.
-///
-/// # Safety
-/// `world` is a handle from `weft_world_create` (or NULL); `out_detail` is writable.
-#[no_mangle]
-pub unsafe extern "C" fn weft_world_last_error_detail(
-    world: *const WeftWorld,
+pub unsafe extern "C" fn weft_world_destroy(
+    world: *mut WeftWorld,
     out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_detail, c"out_detail")?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(w.last_error) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_mut(world) }?;
+            w.cookie = 0;
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Advances the cloth by `dt` seconds (finite, > 0) in `settings.substeps` substeps, moving
@@ -367,22 +429,27 @@ pub unsafe extern "C" fn weft_world_last_error_detail(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); a non-NULL `out_stats` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_step(
     world: *mut WeftWorld,
     dt: f32,
     out_stats: *mut WeftStepStats,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
     unsafe {
-        with_world(world, |w| {
-            if !out_stats.is_null() && !out_stats.is_aligned() {
-                return Err(fault(WeftResult::Misaligned).what(c"out_stats"));
-            }
-            let stats = w.world.step_dt(dt).map_err(step_fault)?;
-            write_opt(out_stats, stats_to_c(&stats));
-            Ok(())
-        })
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                if !out_stats.is_null() && !out_stats.is_aligned() {
+                    return Err(fault(WeftResult::Misaligned).what(c"out_stats"));
+                }
+                let stats = w.world.step_dt(dt).map_err(step_fault)?;
+                write_opt(out_stats, stats_to_c(&stats));
+                Ok(())
+            }),
+        )
     }
 }
 
@@ -390,19 +457,25 @@ pub unsafe extern "C" fn weft_world_step(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `out_settings` is writable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_get_settings(
     world: *const WeftWorld,
     out_settings: *mut WeftSettings,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    done((|| {
-        // SAFETY: forwarded contract.
-        let w = unsafe { world_at(world) }?;
-        let out = out_ptr(out_settings, c"out_settings")?;
-        // SAFETY: checked; writable per the contract.
-        unsafe { out.write(settings_to_c(w.world.settings())) };
-        Ok(())
-    })())
+    let r: FfiResult<()> = {
+        (|| {
+            // SAFETY: forwarded contract.
+            let w = unsafe { world_at(world) }?;
+            let out = out_ptr(out_settings, c"out_settings")?;
+            // SAFETY: checked; writable per the contract.
+            unsafe { out.write(settings_to_c(w.world.settings())) };
+            Ok(())
+        })()
+    };
+    // SAFETY: a non-NULL `out_detail` is writable (the contract).
+    unsafe { detailed(out_detail, r) }
 }
 
 /// Replaces the world's settings (all fields checked; nothing changes on failure). Wakes the
@@ -410,18 +483,23 @@ pub unsafe extern "C" fn weft_world_get_settings(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `settings` is readable.
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
 pub unsafe extern "C" fn weft_world_set_settings(
     world: *mut WeftWorld,
     settings: *const WeftSettings,
+    out_detail: *mut WeftErrorDetail,
 ) -> WeftResult {
-    // SAFETY: forwarded contract.
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
     unsafe {
-        with_world(world, |w| {
-            let s = read_ref(settings, c"settings")?;
-            let s = settings_from_c(s, w.world.settings())?;
-            w.world.set_settings(s).map_err(init_fault)
-        })
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                let s = read_ref(settings, c"settings")?;
+                let s = settings_from_c(s, w.world.settings())?;
+                w.world.set_settings(s).map_err(init_fault)
+            }),
+        )
     }
 }
 
@@ -430,17 +508,25 @@ pub unsafe extern "C" fn weft_world_set_settings(
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_set_effects(world: *mut WeftWorld, effects: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
+pub unsafe extern "C" fn weft_world_set_effects(
+    world: *mut WeftWorld,
+    effects: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
     unsafe {
-        with_world(world, |w| {
-            let s = Settings {
-                effects,
-                ..*w.world.settings()
-            };
-            w.world.set_settings(s).map_err(init_fault)
-        })
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                let s = Settings {
+                    effects,
+                    ..*w.world.settings()
+                };
+                w.world.set_settings(s).map_err(init_fault)
+            }),
+        )
     }
 }
 
@@ -451,20 +537,63 @@ pub unsafe extern "C" fn weft_world_set_effects(world: *mut WeftWorld, effects: 
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_set_solver(world: *mut WeftWorld, solver: u32) -> WeftResult {
-    // SAFETY: forwarded contract.
+pub unsafe extern "C" fn weft_world_set_solver(
+    world: *mut WeftWorld,
+    solver: u32,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
     unsafe {
-        with_world(world, |w| {
-            let solver = match solver {
-                WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
-                WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
-                _ => return Err(invalid(c"solver")),
-            };
-            w.world.set_solver(solver);
-            Ok(())
-        })
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                let solver = match solver {
+                    WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
+                    WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
+                    _ => return Err(invalid(c"solver")),
+                };
+                w.world.set_solver(solver);
+                Ok(())
+            }),
+        )
     }
+}
+
+/// Stores the engine's pointer `user_data` with the world (e.g. the game object that owns
+/// it), for `weft_world_user_data` to give back; weft never reads it. NULL at create.
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_set_user_data(
+    world: *mut WeftWorld,
+    user_data: *mut c_void,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
+    unsafe {
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                w.user_data = user_data;
+                Ok(())
+            }),
+        )
+    }
+}
+
+/// The pointer last given to `weft_world_set_user_data` (NULL before, and for an invalid
+/// handle).
+///
+/// # Safety
+/// `world` is a handle from `weft_world_create` (or NULL).
+#[no_mangle]
+pub unsafe extern "C" fn weft_world_user_data(world: *const WeftWorld) -> *mut c_void {
+    // SAFETY: forwarded contract.
+    unsafe { world_at(world) }.map_or(core::ptr::null_mut(), |w| w.user_data)
 }
 
 /// Whether the world is asleep (false for an invalid handle).
@@ -481,14 +610,21 @@ pub unsafe extern "C" fn weft_world_is_asleep(world: *const WeftWorld) -> bool {
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL).
+/// A non-NULL `out_detail` is writable.
 #[no_mangle]
-pub unsafe extern "C" fn weft_world_wake(world: *mut WeftWorld) -> WeftResult {
-    // SAFETY: forwarded contract.
+pub unsafe extern "C" fn weft_world_wake(
+    world: *mut WeftWorld,
+    out_detail: *mut WeftErrorDetail,
+) -> WeftResult {
+    // SAFETY: forwarded contract; a non-NULL `out_detail` is writable.
     unsafe {
-        with_world(world, |w| {
-            w.world.wake();
-            Ok(())
-        })
+        detailed(
+            out_detail,
+            with_world(world, |w| {
+                w.world.wake();
+                Ok(())
+            }),
+        )
     }
 }
 

@@ -1,7 +1,8 @@
 //! Stages 2 and 5 of a substep: pins and contacts, in one place.
 //!
 //! Before the solve ([`constrain`]): each pin and each contact becomes a per-vertex filter of
-//! the modified PCG (Baraff & Witkin §5.3: `S = 0` for a pin, `S = I − n nᵀ` for a contact) and
+//! the modified PCG (Baraff & Witkin §5.3: `S = 0` for a pin, `S = I − n nᵀ` for a contact or
+//! a pin in a plane, `S = d dᵀ` for a pin on a line) and
 //! a prescribed part of `Δv`. After it ([`resolve`]): Coulomb friction for the contacts the
 //! solve held, projection out of every collider, pins put exactly on their targets. In
 //! between, [`constraint_work`] measures what moving pins and colliders put into the cloth.
@@ -130,8 +131,12 @@ pub(crate) fn constrain(
         let pinned = live(a.pin_vertex, c.pins)?
             .iter()
             .zip(live(a.pin_previous, c.pins)?)
-            .zip(live(a.pin_target, c.pins)?);
-        for ((&vertex, &previous), &target) in pinned {
+            .zip(
+                live(a.pin_target, c.pins)?
+                    .iter()
+                    .zip(live(a.pin_free, c.pins)?),
+            );
+        for ((&vertex, &previous), (&target, &free)) in pinned {
             let i = vertex as usize;
             let target = previous.lerp(target, sub.t);
             let (Some(dv_i), Some(filter_i), Some(&xi), Some(&vi)) =
@@ -139,9 +144,11 @@ pub(crate) fn constrain(
             else {
                 return Err(StepError::SolverBreakdown); // pinned vertices are < n
             };
-            // land exactly on the target at the end of the substep
-            *dv_i = (target - xi) / h - vi;
-            *filter_i = Mat3A::ZERO;
+            // land exactly on the target (the held directions of it) at the end of the
+            // substep; the free directions are the solve's (a pin overrides a contact)
+            let held = Mat3A::IDENTITY - free;
+            *dv_i = free * *dv_i + held * ((target - xi) / h - vi);
+            *filter_i = free;
             constrained = true;
         }
     }
@@ -165,15 +172,21 @@ pub(crate) fn constraint_work(
         let pinned = live(a.pin_vertex, c.pins)?
             .iter()
             .zip(live(a.pin_previous, c.pins)?)
-            .zip(live(a.pin_target, c.pins)?);
-        for ((&vertex, &previous), &target) in pinned {
+            .zip(
+                live(a.pin_target, c.pins)?
+                    .iter()
+                    .zip(live(a.pin_free, c.pins)?),
+            );
+        for ((&vertex, &previous), (&target, &free)) in pinned {
             let i = vertex as usize;
             let moved = previous.lerp(target, sub.t) - previous.lerp(target, sub.t0);
             if moved != Vec3A::ZERO {
                 let (Some(&aq), Some(&b)) = (w_q.get(i), rhs.get(i)) else {
                     return Err(StepError::SolverBreakdown); // pinned vertices are < n
                 };
-                let impulse = aq - b;
+                // the pin pushes only along what it holds (the free part is the solve's
+                // residual)
+                let impulse = (Mat3A::IDENTITY - free) * (aq - b);
                 work += f64::from(impulse.dot(moved / sub.h));
             }
         }
@@ -300,13 +313,23 @@ pub(crate) fn resolve(
         let pinned = live(a.pin_vertex, c.pins)?
             .iter()
             .zip(live(a.pin_previous, c.pins)?)
-            .zip(live(a.pin_target, c.pins)?);
-        for ((&vertex, &previous), &target) in pinned {
+            .zip(
+                live(a.pin_target, c.pins)?
+                    .iter()
+                    .zip(live(a.pin_free, c.pins)?),
+            );
+        for ((&vertex, &previous), (&target, &free)) in pinned {
             // pinned vertices are < n
             let xi = x
                 .get_mut(vertex as usize)
                 .ok_or(StepError::SolverBreakdown)?;
-            *xi = previous.lerp(target, sub.t);
+            let target = previous.lerp(target, sub.t);
+            *xi = if free == Mat3A::ZERO {
+                target
+            } else {
+                // onto the plane or line through the target, along the held directions
+                *xi + (Mat3A::IDENTITY - free) * (target - *xi)
+            };
         }
     }
     if driven {

@@ -6,7 +6,8 @@
 //! ```
 //!
 //! with `f` the membrane force (`membrane.rs`), hinge bending `−B Q x`
-//! (`bending.rs`), gravity, wind and Rayleigh damping `D = αM + βK_w`. The membrane Jacobian
+//! (`bending.rs`), gravity, the forces the engine applied, wind and Rayleigh damping
+//! `D = αM + βK_w`. The membrane Jacobian
 //! `K_w` is assembled into the world's 3×3 blocks here; [`super::system`] folds mass, bending
 //! and drag into them.
 
@@ -86,13 +87,15 @@ pub(crate) fn accumulate(
     let gravity_on = eff & effects::GRAVITY != 0;
     let wind_on = eff & effects::WIND != 0 && st.drag > 0.0;
     let wind = Vec3A::from(st.wind);
-    for (((r, &m), vi), (nrm, &area)) in rhs
+    for ((((r, &m), vi), (nrm, &area)), applied) in rhs
         .iter_mut()
         .zip(live(a.mass, n)?)
         .zip(v)
         .zip(live(a.normals, n)?.iter().zip(live(a.area, n)?))
+        .zip(live(a.applied_force, n)?)
     {
-        let mut f = *r;
+        // the engine's forces for this step (zero unless it applied some)
+        let mut f = *r + Vec3A::from(*applied);
         if gravity_on {
             f += gravity * m;
         }

@@ -9,8 +9,9 @@
 //! ```
 //!
 //! where `W_input` is the work of everything that acts from outside: moving pins and colliders
-//! (their constraint impulses times their velocities, `contacts.rs`) and the wind
-//! (`forces.rs`). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
+//! (their constraint impulses times their velocities, `contacts.rs`), the wind (`forces.rs`)
+//! and the forces the engine applied for the step (constant over it, so their work is
+//! measured from displacements, like gravity's). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
 //! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
 //! every step of every scene; when a step fails it, the world redoes it with twice the
 //! substeps (twice more at most), and if it still gains, the excess is taken out of the free
@@ -107,25 +108,28 @@ pub(crate) fn kinetic(mass: &[f32], v: &[Vec3A]) -> f64 {
         .sum()
 }
 
-/// The work of gravity since the start of the step, `Σ m g·(x − x_start)` (J), and the
-/// round-off of the positions it is measured from.
-pub(crate) fn gravity_work(
+/// The work of the step's constant forces since its start, `Σ (m g + f_applied)·(x − x_start)`
+/// (J): gravity (if on) and the forces the engine applied for this step, both constant over
+/// it; and the round-off of the positions it is measured from.
+pub(crate) fn constant_force_work(
     a: &Arrays<'_>,
     c: &Counts,
     st: &Settings,
 ) -> Result<(f64, f64), StepError> {
-    if st.effects & effects::GRAVITY == 0 {
-        return Ok((0.0, 0.0));
-    }
-    let g = Vec3A::from(st.gravity);
+    let g = if st.effects & effects::GRAVITY != 0 {
+        Vec3A::from(st.gravity)
+    } else {
+        Vec3A::ZERO
+    };
     let (mut work, mut noise) = (0.0f64, 0.0f64);
-    for ((&m, x), x0) in live(a.mass, c.n)?
+    let vertices = live(a.mass, c.n)?
         .iter()
-        .zip(live(a.x, c.n)?)
-        .zip(live(a.x_start, c.n)?)
-    {
-        work += f64::from(m) * f64::from(g.dot(*x - *x0));
-        noise += f64::from(m * g.length() * f32::EPSILON * x.abs().max_element());
+        .zip(live(a.applied_force, c.n)?)
+        .zip(live(a.x, c.n)?.iter().zip(live(a.x_start, c.n)?));
+    for ((&m, &applied), (x, x0)) in vertices {
+        let f = g * m + Vec3A::from(applied);
+        work += f64::from(f.dot(*x - *x0));
+        noise += f64::from(f.length() * f32::EPSILON * x.abs().max_element());
     }
     Ok((work, noise))
 }

@@ -7,8 +7,10 @@
 
 use glam::Vec3A;
 
+use super::effects;
+
+use super::{copy_live, Solver, StridedClothDef, TriangleMaterials, World};
 use super::{memory, origin, Capacity, ClothDef, InitError, Materials, Settings, StepStats};
-use super::{Solver, StridedClothDef, TriangleMaterials, World};
 use crate::bending;
 use crate::membrane::{self, Element};
 use crate::mesh::{self, MeshError, Topology};
@@ -88,6 +90,7 @@ impl<'a> World<'a> {
             nnz: 0,
             pins: 0,
             colliders: 0,
+            next_collider_id: 0,
             total_mass: 0.0,
             calm_frames: 0,
             level: None,
@@ -257,6 +260,7 @@ impl<'a> World<'a> {
             }
         }
         self.total_mass = total_mass;
+        copy_live(a.rest_mass, a.mass, n);
 
         // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
         // stiffness of its two triangles.
@@ -324,7 +328,42 @@ impl<'a> World<'a> {
         }
         // Normals (and, for per-node warping, warm-started rotations) of the initial placement.
         self.refresh_frames(8);
-        Ok(())
+        self.check_initial_forces()
+    }
+
+    /// Refuses a cloth that can never step: every step first evaluates the elastic forces and
+    /// stiffness of its state in `f32`, and fails (`SolverBreakdown`) when they overflow, and a
+    /// failed step keeps its state, so a cloth whose initial forces do not fit `f32` fails
+    /// every step. That happens when the positions stretch the rest (u, v) beyond anything a
+    /// membrane takes (e.g. (u, v) scaled by 1e-15 against positions in metres: a stretch of
+    /// 1e15). The error names the first triangle whose own force overflows.
+    fn check_initial_forces(&mut self) -> Result<(), InitError> {
+        let (n, nt, nnz) = (self.n, self.nt, self.nnz);
+        let force = core::mem::take(&mut self.a.force);
+        let assembled = self.elastic_forces(force);
+        self.a.force = force;
+        let a = &self.a;
+        let finite = assembled
+            && live(a.force, n)?.iter().all(|f| f.is_finite())
+            && live(a.k_diag, n)?.iter().all(|k| k.is_finite())
+            && live(a.k_off, nnz)?.iter().all(|k| k.is_finite());
+        if finite {
+            return Ok(());
+        }
+        let warping = self.settings.effects & effects::WARPING != 0;
+        let strain = crate::step::forces::membrane_strain(warping);
+        let x = live(a.x, n)?;
+        let corner = |i: u32| x.get(i as usize).copied().unwrap_or(Vec3A::ZERO); // (< n)
+        let overflows = |(tri, element): (&[u32; 3], &Element)| {
+            let (e, d1, d2) = element.measure(tri.map(corner), strain);
+            let stress = element.stress(e).iter().fold(0.0f32, |m, s| m.max(s.abs()));
+            let gradient = element.grad.iter().fold(0.0f32, |m, g| m.max(g.abs()));
+            let force = element.area * stress * gradient * d1.length().max(d2.length());
+            !force.is_finite()
+        };
+        let mut triangles = live(a.triangles, nt)?.iter().zip(live(a.elements, nt)?);
+        let triangle = triangles.position(overflows).unwrap_or(0) as u32;
+        Err(InitError::StrainOutOfRange { triangle })
     }
 }
 

@@ -37,6 +37,12 @@ pub enum InitError {
     InvalidSetting {
         field: &'static str,
     },
+    /// The initial positions stretch triangle `triangle`'s rest (u, v) so far that its elastic
+    /// force does not fit `f32`: every step would fail. Usually (u, v) and positions in
+    /// different units.
+    StrainOutOfRange {
+        triangle: u32,
+    },
     /// An internal consistency check failed (a bug if it happens; never a panic).
     Internal,
 }
@@ -118,8 +124,19 @@ pub enum EditError {
     NonFinite,
     PinCapacity,
     ColliderCapacity,
-    ColliderOutOfRange,
+    /// A triangle range reaches past the last triangle.
+    TriangleOutOfRange,
+    /// No collider has that id (never added, or removed).
+    UnknownCollider,
     InvalidCollider,
+    /// A pin's plane normal or line direction is zero or not finite.
+    InvalidAxis,
+    /// A rotation quaternion of zero length.
+    InvalidRotation,
+    /// A mass scale that is not finite and positive, or gives a mass beyond `f32`.
+    InvalidMassScale {
+        vertex: u32,
+    },
 }
 
 impl fmt::Display for InitError {
@@ -155,6 +172,11 @@ impl fmt::Display for InitError {
                 )
             }
             InitError::InvalidSetting { field } => write!(f, "setting `{field}` is out of range"),
+            InitError::StrainOutOfRange { triangle } => write!(
+                f,
+                "triangle {triangle} is stretched so far from its (u, v) that its force is beyond \
+                 f32: the cloth could never step"
+            ),
             InitError::Internal => f.write_str("internal consistency check failed"),
         }
     }
@@ -178,13 +200,23 @@ impl fmt::Display for StepError {
 
 impl fmt::Display for EditError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let EditError::InvalidMassScale { vertex } = self {
+            return write!(
+                f,
+                "the mass scale of vertex {vertex} is not positive, or its mass is beyond f32"
+            );
+        }
         f.write_str(match self {
             EditError::VertexOutOfRange => "vertex index or count out of range",
             EditError::NonFinite => "a value is NaN or infinite",
             EditError::PinCapacity => "no room for another pin",
             EditError::ColliderCapacity => "no room for another collider",
-            EditError::ColliderOutOfRange => "no collider with that index",
+            EditError::UnknownCollider => "no collider has that id (never added, or removed)",
             EditError::InvalidCollider => "the collider's shape or parameters are invalid",
+            EditError::InvalidMassScale { .. } => "invalid mass scale",
+            EditError::InvalidAxis => "a pin's normal or direction is zero or not finite",
+            EditError::TriangleOutOfRange => "triangle index or count out of range",
+            EditError::InvalidRotation => "the rotation quaternion has zero length",
         })
     }
 }

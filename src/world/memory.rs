@@ -129,8 +129,13 @@ arrays! { cap;
     dv_start: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Rest positions `(u, v, 0)`.
     rest: Vec3A = [cap.v(); Vec3A::ZERO],
-    /// Lumped masses (kg).
+    /// Lumped masses (kg): the step's, `rest_mass` times the vertex's mass scale.
     mass: f32 = [cap.v(); 0.0],
+    /// Lumped masses from the materials' densities at init (kg), what a mass scale scales.
+    rest_mass: f32 = [cap.v(); 0.0],
+    /// Forces the engine applied for the next step (N), constant over it, cleared after it
+    /// (packed: the 64×64 default world stays within 4 MB).
+    applied_force: [f32; 3] = [cap.v(); [0.0; 3]],
     /// Lumped area (m²), for wind.
     area: f32 = [cap.v(); 0.0],
     triangles: [u32; 3] = [cap.t(); [0; 3]],
@@ -187,6 +192,12 @@ arrays! { cap;
     pin_vertex: u32 = [cap.p(); 0],
     pin_target: Vec3A = [cap.p(); Vec3A::ZERO],
     pin_previous: Vec3A = [cap.p(); Vec3A::ZERO],
+    /// The directions each pin leaves free, as the PCG filter `S` of its vertex: 0 for a
+    /// point, `I − n nᵀ` for a plane, `d dᵀ` for a line (see `PinAxes`).
+    pin_free: Mat3A = [cap.p(); Mat3A::ZERO],
+    /// The id of the collider in each slot (ids stay with their collider when another is
+    /// removed; the slots stay packed).
+    collider_id: u32 = [cap.c(); mesh::NONE],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
 }
 

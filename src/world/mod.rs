@@ -15,8 +15,12 @@
 //! **Coordinates.** The world simulates relative to its [`origin`](World::origin) (an `f64`
 //! point of the caller's coordinates, near the cloth: `origin.rs` says why and how it is
 //! chosen). Every input is in the caller's coordinates and converted on the way in:
-//! [`ClothDef`] positions, [`World::set_positions`], [`World::set_pin`],
-//! [`World::add_collider`], [`World::set_collider_shape`]. The accessors that lend the world's
+//! [`ClothDef`] positions, [`World::set_positions`] and [`World::set_positions_range`],
+//! [`World::set_pin`] and [`World::set_pin_axes`] (the plane's or line's point),
+//! [`World::add_collider`], [`World::set_collider_shape`], and [`World::transform`]
+//! (`x ← R x + t` in the caller's coordinates, computed in `f64`, after which the origin is
+//! chosen again for where the cloth lands). Velocities, forces, impulses, pin axes and strains are
+//! differences and are not converted. The accessors that lend the world's
 //! own arrays, [`World::positions`] and [`World::collider`], are in local coordinates;
 //! [`World::to_world`] turns a local point into the caller's (the C API's getters do), and
 //! localization's frames ([`crate::localize::prepare`]) are in the caller's coordinates. For a
@@ -36,10 +40,7 @@ pub use origin::ORIGIN_GRID;
 pub use settings::{effects, Settings, Solver};
 
 use core::ops::Not;
-#[cfg(feature = "research")]
-use glam::Quat;
-
-use glam::{DVec3, Vec3A};
+use glam::{DVec3, Mat3A, Quat, Vec3A};
 
 use crate::blob::Blob;
 use crate::collide::{Collider, ColliderSet, Shape};
@@ -48,7 +49,7 @@ use crate::mesh;
 use crate::multigrid;
 use crate::normals;
 use crate::step::{self, monitor};
-use crate::strided::Strided;
+use crate::strided::{Strided, StridedMut};
 
 /// A material as the world uses it: stiffness (C^H for a coarse cloth, the pixel's own C for
 /// the fine reference), areal density and bending stiffness.
@@ -143,13 +144,44 @@ fn check_vertex_input(input: &Strided<'_, 3>, n: usize) -> Result<(), EditError>
     if input.count() != n {
         return Err(EditError::VertexOutOfRange);
     }
+    check_range_input(input, 0, n).map(|_| ())
+}
+
+/// A vertex-range input of the edit functions: entries for vertices `first..first + count`,
+/// all below `n`, every value finite. Returns the range.
+fn check_range_input<const N: usize>(
+    input: &Strided<'_, N>,
+    first: usize,
+    n: usize,
+) -> Result<core::ops::Range<usize>, EditError> {
+    let end = first
+        .checked_add(input.count())
+        .filter(|&end| end <= n)
+        .ok_or(EditError::VertexOutOfRange)?;
     let finite = |i| {
         input
             .get(i)
             .is_some_and(|p| p.iter().all(|c| c.is_finite()))
     };
-    if !(0..n).all(finite) {
+    if !(0..input.count()).all(finite) {
         return Err(EditError::NonFinite);
+    }
+    Ok(first..end)
+}
+
+/// `array[first..first + input.count()] = convert(input)`, after [`check_range_input`]
+/// (nothing is written on failure); `convert` takes positions to local coordinates.
+fn write_range(
+    array: &mut [Vec3A],
+    first: usize,
+    input: &Strided<'_, 3>,
+    n: usize,
+    convert: impl Fn([f32; 3]) -> Vec3A,
+) -> Result<(), EditError> {
+    let range = check_range_input(input, first, n)?;
+    let to = array.get_mut(range).ok_or(EditError::VertexOutOfRange)?;
+    for (k, x) in to.iter_mut().enumerate() {
+        *x = convert(input.get(k).ok_or(EditError::VertexOutOfRange)?);
     }
     Ok(())
 }
@@ -172,6 +204,42 @@ fn copy_live<T: Copy>(to: &mut [T], from: &[T], n: usize) {
     }
 }
 
+/// The directions a pin holds ([`World::set_pin_axes`]); the others are free.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PinAxes {
+    /// Every direction: the vertex is on the target.
+    Point,
+    /// The direction `normal` only: the vertex slides freely in the plane through the target
+    /// normal to it.
+    Plane { normal: [f32; 3] },
+    /// The two directions normal to `direction`: the vertex slides freely along the line
+    /// through the target (a curtain ring on a rail).
+    Line { direction: [f32; 3] },
+}
+
+impl PinAxes {
+    /// The free directions as a projection `S` (the PCG filter of the pinned vertex), or
+    /// `None` for an axis that is not finite and non-zero.
+    fn free_directions(&self) -> Option<Mat3A> {
+        let unit = |a: [f32; 3]| {
+            let a = Vec3A::from(a);
+            let unit = a.normalize_or_zero();
+            (a.is_finite() && unit != Vec3A::ZERO).then_some(unit)
+        };
+        Some(match *self {
+            PinAxes::Point => Mat3A::ZERO,
+            PinAxes::Plane { normal } => {
+                let n = unit(normal)?;
+                Mat3A::IDENTITY - step::system::outer(n, n)
+            }
+            PinAxes::Line { direction } => {
+                let d = unit(direction)?;
+                step::system::outer(d, d)
+            }
+        })
+    }
+}
+
 /// A coarse cloth and everything needed to step it, living in a caller-owned block.
 pub struct World<'a> {
     a: Arrays<'a>,
@@ -184,6 +252,8 @@ pub struct World<'a> {
     nnz: usize,
     pins: usize,
     colliders: usize,
+    /// The id the next collider gets (ids are not reused while their collider lives).
+    next_collider_id: u32,
     /// Per-vertex lumped mass sum, kg.
     total_mass: f64,
     calm_frames: u32,
@@ -306,10 +376,21 @@ impl<'a> World<'a> {
     /// [`World::set_positions`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_positions_strided(&mut self, positions: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(positions, self.n)?;
+        self.set_positions_range(0, positions)
+    }
+
+    /// Overwrites the positions (caller's coordinates) of vertices
+    /// `first..first + positions.count()` (the others keep theirs); checks every value first,
+    /// nothing changes on failure. Wakes the world.
+    pub fn set_positions_range(
+        &mut self,
+        first: usize,
+        positions: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
         let origin = self.origin;
-        for (i, x) in prefix_mut(self.a.x, self.n).iter_mut().enumerate() {
-            *x = origin::to_local(origin, positions.get(i).ok_or(EditError::VertexOutOfRange)?);
-        }
+        write_range(self.a.x, first, positions, self.n, |p| {
+            origin::to_local(origin, p)
+        })?;
         self.wake();
         Ok(())
     }
@@ -323,35 +404,249 @@ impl<'a> World<'a> {
     /// [`World::set_velocities`] from a strided (e.g. interleaved) vertex buffer.
     pub fn set_velocities_strided(&mut self, velocities: &Strided<'_, 3>) -> Result<(), EditError> {
         check_vertex_input(velocities, self.n)?;
-        for (i, v) in prefix_mut(self.a.v, self.n).iter_mut().enumerate() {
-            *v = Vec3A::from(velocities.get(i).ok_or(EditError::VertexOutOfRange)?);
-        }
+        self.set_velocities_range(0, velocities)
+    }
+
+    /// Overwrites the velocities of vertices `first..first + velocities.count()` (the others
+    /// keep theirs) and forgets the solver's warm start; checks every value first, nothing
+    /// changes on failure. Wakes the world.
+    pub fn set_velocities_range(
+        &mut self,
+        first: usize,
+        velocities: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
+        write_range(self.a.v, first, velocities, self.n, Vec3A::from)?;
         prefix_mut(self.a.dv, self.n).fill(Vec3A::ZERO);
+        self.wake();
+        Ok(())
+    }
+
+    /// Moves the whole cloth rigidly, `x ← R x + t` in the caller's coordinates (so `R` turns
+    /// about the caller's zero: to turn about a point `p`, pass `t = p − R p + the move`), a
+    /// teleport with a character: its shape, and so its elastic and bending energy, is kept.
+    /// With `keep_velocity` the velocities (and the solver's warm start) turn with it,
+    /// `v ← R v`, so the motion goes on in the new frame; otherwise the cloth is at rest. Pin
+    /// targets move with the cloth (set them again if they should not); contacts are
+    /// forgotten, colliders stay. `rotation` must be finite and non-zero (it is normalized),
+    /// `translation` finite; `NonFinite` (nothing changed) also when the cloth would land
+    /// beyond `f32`. Wakes the world.
+    ///
+    /// The motion is computed in `f64` from the caller's coordinates, one rounding per
+    /// position, and the [`World::origin`] is chosen again for where the cloth lands, as at
+    /// creation: a cloth teleported 10 km keeps its edge lengths to the `f32` of a local
+    /// coordinate and goes on being simulated near its origin.
+    pub fn transform(
+        &mut self,
+        rotation: Quat,
+        translation: [f32; 3],
+        keep_velocity: bool,
+    ) -> Result<(), EditError> {
+        let t = Vec3A::from(translation);
+        if !(rotation.is_finite() && t.is_finite()) {
+            return Err(EditError::NonFinite);
+        }
+        if rotation.length_squared() < f32::MIN_POSITIVE {
+            return Err(EditError::InvalidRotation);
+        }
+        let rotation = rotation.normalize();
+        let motion = origin::Rigid::new(rotation, t);
+        let from = self.origin;
+        let landed = prefix(self.a.x, self.n)
+            .iter()
+            .map(|&x| motion.apply(from, x));
+        let to = origin::origin_around(landed);
+        self.reorigin(to, |x| origin::moved(from, to, &motion, x))?;
+        let (n, pins) = (self.n, self.pins);
+        let r = Mat3A::from_quat(rotation);
+        let a = &mut self.a;
+        for free in prefix_mut(a.pin_free, pins) {
+            *free = r * *free * r.transpose();
+        }
+        for v in prefix_mut(a.v, n).iter_mut().chain(prefix_mut(a.dv, n)) {
+            *v = if keep_velocity { r * *v } else { Vec3A::ZERO };
+        }
+        prefix_mut(a.contact, n).fill(mesh::NONE);
+        self.refresh_frames(8);
+        self.wake();
+        Ok(())
+    }
+
+    // ----- read-back -----
+
+    /// The Green strain `E = ½(FᵀF − I)` of triangles `first..first + out.count()`, in the
+    /// triangle's material frame (the cloth's (u, v) axes), Voigt `[E11, E22, 2 E12]` with
+    /// engineering shear: `F` maps the triangle's rest (u, v) to its current positions. Whatever
+    /// the step's strain measure, this is the Green strain. The stretch along u is
+    /// `sqrt(1 + 2 E11)` (along v likewise; 1 at rest), the thing to threshold for tearing.
+    pub fn triangle_strains(
+        &self,
+        first: usize,
+        out: &mut StridedMut<'_, 3>,
+    ) -> Result<(), EditError> {
+        let end = first
+            .checked_add(out.count())
+            .filter(|&end| end <= self.nt)
+            .ok_or(EditError::TriangleOutOfRange)?;
+        let (triangles, elements) = (
+            self.a.triangles.get(first..end),
+            self.a.elements.get(first..end),
+        );
+        let (Some(triangles), Some(elements)) = (triangles, elements) else {
+            return Err(EditError::TriangleOutOfRange);
+        };
+        let x = self.positions();
+        for (k, (tri, element)) in triangles.iter().zip(elements).enumerate() {
+            let corner = |c: usize| {
+                let i = tri.get(c).copied().unwrap_or(0) as usize;
+                x.get(i).copied().unwrap_or(Vec3A::ZERO) // (corners are < n)
+            };
+            let (e, _, _) =
+                element.measure([corner(0), corner(1), corner(2)], membrane::Strain::Green);
+            out.set(k, e);
+        }
+        Ok(())
+    }
+
+    // ----- forces, impulses, masses -----
+
+    /// Adds forces (N) to vertices `first..first + forces.count()` for the next step: constant
+    /// over it, then cleared (apply them again each frame for a lasting force). The step's
+    /// energy balance counts their work as input. Checks every value first; nothing changes
+    /// on failure. Wakes the world when any is non-zero.
+    pub fn add_forces(&mut self, first: usize, forces: &Strided<'_, 3>) -> Result<(), EditError> {
+        let range = check_range_input(forces, first, self.n)?;
+        let applied = self
+            .a
+            .applied_force
+            .get_mut(range)
+            .ok_or(EditError::VertexOutOfRange)?;
+        let mut any = false;
+        for (k, f) in applied.iter_mut().enumerate() {
+            let add = Vec3A::from(forces.get(k).ok_or(EditError::VertexOutOfRange)?);
+            *f = (Vec3A::from(*f) + add).to_array();
+            any |= add != Vec3A::ZERO;
+        }
+        if any {
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// The forces applied for the next step so far (N), per vertex.
+    pub fn applied_forces(&self) -> &[[f32; 3]] {
+        prefix(self.a.applied_force, self.n)
+    }
+
+    /// Applies impulses (N·s) to vertices `first..first + impulses.count()`: each vertex's
+    /// velocity changes by `impulse / mass` at once, so the next step starts from it (a pinned
+    /// vertex stays held). Checks every value first; nothing changes on failure. Wakes the
+    /// world when any is non-zero.
+    pub fn add_impulses(
+        &mut self,
+        first: usize,
+        impulses: &Strided<'_, 3>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(impulses, first, self.n)?;
+        let (Some(v), Some(mass)) = (
+            self.a.v.get_mut(range.clone()),
+            self.a.mass.get(range.clone()),
+        ) else {
+            return Err(EditError::VertexOutOfRange);
+        };
+        let mut any = false;
+        for (k, (v, &m)) in v.iter_mut().zip(mass).enumerate() {
+            let impulse = Vec3A::from(impulses.get(k).ok_or(EditError::VertexOutOfRange)?);
+            *v += impulse / m;
+            any |= impulse != Vec3A::ZERO;
+        }
+        if any {
+            self.wake();
+        }
+        Ok(())
+    }
+
+    /// Sets the mass scale of vertices `first..first + scales.count()`: each one's mass
+    /// becomes its lumped mass from the materials' density times the scale (heavier hems,
+    /// weighted attachment points). A scale must be finite and positive, and the mass it gives
+    /// a normal positive `f32` (`EditError::InvalidMassScale` names the first that is not).
+    /// The step uses these masses for inertia, gravity and damping. Checks every value first;
+    /// nothing changes on failure. Wakes the world.
+    pub fn set_mass_scales(
+        &mut self,
+        first: usize,
+        scales: &Strided<'_, 1>,
+    ) -> Result<(), EditError> {
+        let range = check_range_input(scales, first, self.n)?;
+        let (Some(mass), Some(rest)) = (
+            self.a.mass.get_mut(range.clone()),
+            self.a.rest_mass.get(range.clone()),
+        ) else {
+            return Err(EditError::VertexOutOfRange);
+        };
+        let scaled = |k: usize, &rest: &f32| {
+            let s = scales.get(k).map_or(f32::NAN, |[s]| s);
+            let m = rest * s;
+            (s > 0.0 && m.is_normal()).then_some(m)
+        };
+        if let Some(k) = rest
+            .iter()
+            .enumerate()
+            .position(|(k, r)| scaled(k, r).is_none())
+        {
+            return Err(EditError::InvalidMassScale {
+                vertex: (first + k) as u32,
+            });
+        }
+        for (k, (m, r)) in mass.iter_mut().zip(rest).enumerate() {
+            *m = scaled(k, r).unwrap_or(*m);
+        }
+        self.total_mass = prefix(self.a.mass, self.n)
+            .iter()
+            .map(|&m| f64::from(m))
+            .sum();
         self.wake();
         Ok(())
     }
 
     // ----- pins -----
 
-    /// Pins `vertex` to `target` (m, caller's coordinates). A pin that already exists gets the new target; the vertex
-    /// moves there over the next step (linearly across substeps). Wakes the world when the
-    /// target changed. Targets are checked at step time too, so a NaN target set through a
-    /// raw pointer in C is still caught.
+    /// Pins `vertex` to `target` (m, caller's coordinates) in every direction. A pin that
+    /// already exists gets the new target; the vertex moves there over the next step (linearly
+    /// across substeps). Wakes the world when the target changed. Targets are checked at step
+    /// time too, so a NaN target set through a raw pointer in C is still caught.
     pub fn set_pin(&mut self, vertex: u32, target: [f32; 3]) -> Result<(), EditError> {
+        self.set_pin_axes(vertex, target, PinAxes::Point)
+    }
+
+    /// Pins `vertex` to `target` (m, caller's coordinates) in the directions `axes` holds and leaves it free in the
+    /// others (a ring on a rail: [`PinAxes::Line`]); otherwise as [`World::set_pin`]. The held
+    /// directions are the solver's constraint filter, so the free ones feel no friction.
+    pub fn set_pin_axes(
+        &mut self,
+        vertex: u32,
+        target: [f32; 3],
+        axes: PinAxes,
+    ) -> Result<(), EditError> {
         let vi = vertex as usize;
         if vi >= self.n {
             return Err(EditError::VertexOutOfRange);
         }
+        let free = axes.free_directions().ok_or(EditError::InvalidAxis)?;
         let target = origin::to_local(self.origin, target);
         // (`pin_of` and `x` are capacity-long, and a pin index is below the pin count: the
         // `VertexOutOfRange` and `PinCapacity` below cannot happen)
         let p = *self.a.pin_of.get(vi).ok_or(EditError::VertexOutOfRange)?;
         if p != mesh::NONE {
-            let slot = prefix_mut(self.a.pin_target, self.pins)
-                .get_mut(p as usize)
-                .ok_or(EditError::PinCapacity)?;
-            if *slot != target {
+            let a = &mut self.a;
+            let (Some(slot), Some(slot_free)) = (
+                prefix_mut(a.pin_target, self.pins).get_mut(p as usize),
+                prefix_mut(a.pin_free, self.pins).get_mut(p as usize),
+            ) else {
+                return Err(EditError::PinCapacity);
+            };
+            if (*slot, *slot_free) != (target, free) {
                 *slot = target;
+                *slot_free = free;
                 self.wake();
             }
             return Ok(());
@@ -361,10 +656,11 @@ impl<'a> World<'a> {
         }
         let p = self.pins;
         let a = &mut self.a;
-        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous), Some(pin_free)) = (
             a.pin_vertex.get_mut(p),
             a.pin_target.get_mut(p),
             a.pin_previous.get_mut(p),
+            a.pin_free.get_mut(p),
         ) else {
             return Err(EditError::PinCapacity);
         };
@@ -373,6 +669,7 @@ impl<'a> World<'a> {
         };
         *pin_vertex = vertex;
         *pin_target = target;
+        *pin_free = free;
         // A new pin starts where the vertex is, so it is not yanked in one substep.
         *pin_previous = x;
         *pin_of = p as u32;
@@ -396,17 +693,19 @@ impl<'a> World<'a> {
         let last = self.pins - 1;
         let p = p as usize;
         let a = &mut self.a;
-        let (Some(&last_vertex), Some(&last_target), Some(&last_previous)) = (
+        let (Some(&last_vertex), Some(&last_target), Some(&last_previous), Some(&last_free)) = (
             a.pin_vertex.get(last),
             a.pin_target.get(last),
             a.pin_previous.get(last),
+            a.pin_free.get(last),
         ) else {
             return Err(EditError::PinCapacity);
         };
-        let (Some(pin_vertex), Some(pin_target), Some(pin_previous)) = (
+        let (Some(pin_vertex), Some(pin_target), Some(pin_previous), Some(pin_free)) = (
             a.pin_vertex.get_mut(p),
             a.pin_target.get_mut(p),
             a.pin_previous.get_mut(p),
+            a.pin_free.get_mut(p),
         ) else {
             return Err(EditError::PinCapacity);
         };
@@ -416,6 +715,7 @@ impl<'a> World<'a> {
         *pin_vertex = last_vertex;
         *pin_target = last_target;
         *pin_previous = last_previous;
+        *pin_free = last_free;
         // (in this order: when `p` is the last pin, `last_vertex` is `vertex`)
         if let Some(moved) = a.pin_of.get_mut(last_vertex as usize) {
             *moved = p as u32;
@@ -434,7 +734,9 @@ impl<'a> World<'a> {
 
     // ----- colliders -----
 
-    /// Adds a collider (its shapes in the caller's coordinates); returns its index.
+    /// Adds a collider (its shapes in the caller's coordinates); returns its id, which names it
+    /// until it is removed, whatever else is added or removed (0, 1, 2 ... in order of
+    /// addition; a removed collider's id is not given again until the 32-bit counter wraps).
     pub fn add_collider(&mut self, collider: Collider) -> Result<u32, EditError> {
         if !collider.is_valid() {
             return Err(EditError::InvalidCollider);
@@ -447,27 +749,42 @@ impl<'a> World<'a> {
         if self.colliders >= self.capacity.c() {
             return Err(EditError::ColliderCapacity);
         }
-        let slot = self
-            .a
-            .colliders
-            .get_mut(self.colliders)
-            .ok_or(EditError::ColliderCapacity)?;
+        // (after a wrap of the counter, skip the ids still in use)
+        let mut id = self.next_collider_id;
+        while id == mesh::NONE || self.collider_slot(id).is_some() {
+            id = id.wrapping_add(1);
+        }
+        let k = self.colliders;
+        let (Some(slot), Some(slot_id)) =
+            (self.a.colliders.get_mut(k), self.a.collider_id.get_mut(k))
+        else {
+            return Err(EditError::ColliderCapacity);
+        };
         *slot = collider;
+        *slot_id = id;
         self.colliders += 1;
+        self.next_collider_id = id.wrapping_add(1);
         self.wake();
-        Ok(self.colliders as u32 - 1)
+        Ok(id)
     }
 
-    /// Moves collider `index` to `shape` (caller's coordinates); the next step sweeps it from
+    /// The slot of the collider `id` (colliders are packed in slots `..colliders`).
+    fn collider_slot(&self, id: u32) -> Option<usize> {
+        prefix(self.a.collider_id, self.colliders)
+            .iter()
+            .position(|&c| c == id)
+    }
+
+    /// Moves collider `id` to `shape` (caller's coordinates); the next step sweeps it from
     /// where it was.
-    pub fn set_collider_shape(&mut self, index: u32, shape: Shape) -> Result<(), EditError> {
+    pub fn set_collider_shape(&mut self, id: u32, shape: Shape) -> Result<(), EditError> {
         let shape = origin::shape_to_local(self.origin, shape);
+        let k = self.collider_slot(id).ok_or(EditError::UnknownCollider)?;
         let c = self
             .a
             .colliders
-            .get_mut(..self.colliders)
-            .and_then(|c| c.get_mut(index as usize))
-            .ok_or(EditError::ColliderOutOfRange)?;
+            .get_mut(k)
+            .ok_or(EditError::UnknownCollider)?;
         if !shape.is_valid() {
             return Err(EditError::InvalidCollider);
         }
@@ -478,9 +795,14 @@ impl<'a> World<'a> {
         Ok(())
     }
 
-    /// Collider `index`, in local coordinates (module docs, "Coordinates").
-    pub fn collider(&self, index: u32) -> Option<&Collider> {
-        prefix(self.a.colliders, self.colliders).get(index as usize)
+    /// Collider `id`, if it exists, in local coordinates (module docs, "Coordinates").
+    pub fn collider(&self, id: u32) -> Option<&Collider> {
+        self.a.colliders.get(self.collider_slot(id)?)
+    }
+
+    /// The ids of the colliders, in slot order.
+    pub fn collider_ids(&self) -> &[u32] {
+        prefix(self.a.collider_id, self.colliders)
     }
 
     pub fn collider_count(&self) -> usize {
@@ -494,6 +816,46 @@ impl<'a> World<'a> {
             colliders: prefix(self.a.colliders, self.colliders),
             origin: self.origin.as_vec3a(),
         }
+    }
+
+    /// Removes collider `id`; the other colliders keep their ids. An id that names no
+    /// collider (never added, or removed already) is [`EditError::UnknownCollider`]. Wakes
+    /// the world.
+    pub fn remove_collider(&mut self, id: u32) -> Result<(), EditError> {
+        let k = self.collider_slot(id).ok_or(EditError::UnknownCollider)?;
+        let last = self.colliders - 1;
+        let a = &mut self.a;
+        if last >= a.colliders.len().min(a.collider_id.len()) {
+            return Err(EditError::UnknownCollider); // (slots below the count always exist)
+        }
+        // the last slot moves into the hole, and the contacts follow their collider
+        a.colliders.swap(k, last);
+        a.collider_id.swap(k, last);
+        let (k, last) = (k as u32, last as u32);
+        let contacts = prefix_mut(a.contact, self.n)
+            .iter_mut()
+            .chain(prefix_mut(a.contact_start, self.n));
+        for c in contacts {
+            if *c == mesh::NONE {
+                continue;
+            }
+            let (collider, stick) = (*c & !step::contacts::STICK, *c & step::contacts::STICK);
+            if collider == k {
+                *c = mesh::NONE;
+            } else if collider == last {
+                *c = k | stick;
+            }
+        }
+        self.colliders -= 1;
+        self.wake();
+        Ok(())
+    }
+
+    /// Removes all colliders (their ids are not given again).
+    pub fn clear_colliders(&mut self) {
+        self.colliders = 0;
+        prefix_mut(self.a.contact, self.n).fill(mesh::NONE);
+        self.wake();
     }
 
     // ----- origin -----
@@ -521,25 +883,36 @@ impl<'a> World<'a> {
     /// far that a local coordinate would not be finite.
     pub fn set_origin(&mut self, origin: DVec3) -> Result<(), EditError> {
         let from = self.origin;
-        let finite = |x: &Vec3A| origin::rebase(from, origin, *x).is_finite();
-        if !(origin.is_finite() && prefix(self.a.x, self.n).iter().all(finite)) {
+        self.reorigin(origin, |x| origin::rebase(from, origin, x))
+    }
+
+    /// Makes `to` the origin: positions and pin targets become `place(x)` (their local
+    /// coordinates relative to `to`), colliders are re-expressed relative to `to`, where they
+    /// are in the caller's coordinates. `NonFinite` (nothing changed) when `to` or a placed
+    /// position is not finite.
+    fn reorigin(&mut self, to: DVec3, place: impl Fn(Vec3A) -> Vec3A) -> Result<(), EditError> {
+        let from = self.origin;
+        if !(to.is_finite()
+            && prefix(self.a.x, self.n)
+                .iter()
+                .all(|&x| place(x).is_finite()))
+        {
             return Err(EditError::NonFinite);
         }
         let a = &mut self.a;
-        for x in prefix_mut(a.x, self.n) {
-            *x = origin::rebase(from, origin, *x);
-        }
-        for x in prefix_mut(a.pin_target, self.pins)
+        let targets = prefix_mut(a.pin_target, self.pins).iter_mut();
+        for x in prefix_mut(a.x, self.n)
             .iter_mut()
+            .chain(targets)
             .chain(prefix_mut(a.pin_previous, self.pins))
         {
-            *x = origin::rebase(from, origin, *x);
+            *x = place(*x);
         }
         for c in prefix_mut(a.colliders, self.colliders) {
-            c.shape = c.shape.translated(from - origin);
-            c.previous = c.previous.translated(from - origin);
+            c.shape = c.shape.translated(from - to);
+            c.previous = c.previous.translated(from - to);
         }
-        self.origin = origin;
+        self.origin = to;
         // the gravitational energy is measured from the origin's height
         self.level = None;
         Ok(())
@@ -556,13 +929,6 @@ impl<'a> World<'a> {
         }
         self.origin = origin;
         Ok(())
-    }
-
-    /// Removes all colliders.
-    pub fn clear_colliders(&mut self) {
-        self.colliders = 0;
-        prefix_mut(self.a.contact, self.n).fill(mesh::NONE);
-        self.wake();
     }
 
     // ----- stepping -----
@@ -624,6 +990,7 @@ impl<'a> World<'a> {
             c.previous = c.shape;
         }
         copy_live(self.a.pin_previous, self.a.pin_target, self.pins);
+        prefix_mut(self.a.applied_force, n).fill([0.0; 3]);
         if eff & effects::SLEEP != 0 {
             let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
             let v = prefix_mut(self.a.v, n);
@@ -654,7 +1021,8 @@ impl<'a> World<'a> {
             let mut stats = self.run_substeps(dt, substeps)?;
             let (input, input_noise) = self.last_input;
             let end = monitor::level(&self.a, &counts, &self.settings)?;
-            let (gravity, gravity_noise) = monitor::gravity_work(&self.a, &counts, &self.settings)?;
+            let (gravity, gravity_noise) =
+                monitor::constant_force_work(&self.a, &counts, &self.settings)?;
             let gain = end.energy - start.energy - gravity - input;
             let floor = start.noise + end.noise + gravity_noise + input_noise;
             stats.redone = redone;

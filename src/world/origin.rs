@@ -8,22 +8,26 @@
 //! the cloth, and converts on the way in and out, here and nowhere else:
 //!
 //! * [`to_local`] / [`shape_to_local`]: caller → local, for every input (the cloth's initial
-//!   positions, `set_positions`, pin targets, collider shapes);
+//!   positions, `set_positions` and its ranges, pin targets of every kind, collider shapes);
 //! * [`to_world`]: local → caller, for every output in the caller's coordinates (positions read
-//!   back, localization's frames and so its fine vertices).
+//!   back, localization's frames and so its fine vertices);
+//! * [`moved`]: a rigid motion given in the caller's coordinates (`World::transform`: a turn
+//!   about the caller's zero, not the origin), from one origin to another.
 //!
-//! Both go through `f64`, so a conversion rounds once, to the nearest `f32` of the result.
+//! All go through `f64`, so a conversion rounds once, to the nearest `f32` of the result.
 //! Velocities, strains, forces and energies other than gravity's are differences and do not
 //! change; the gravitational energy is measured from the origin's height.
 //!
 //! At creation the origin is the centre of the cloth's bounding box rounded to a multiple of
 //! [`ORIGIN_GRID`] m, so every cloth within half of that of zero keeps origin zero (local
 //! coordinates are then the caller's, bit for bit) and any other is simulated within
-//! `ORIGIN_GRID / 2` plus its own size of local zero. `World::set_origin` moves it (e.g. after
-//! the cloth travelled far), `World::shift_origin` follows an engine that recenters its own
+//! `ORIGIN_GRID / 2` plus its own size of local zero. `World::transform` chooses it again by
+//! the same rule for where the cloth lands (a teleport of kilometres would otherwise leave the
+//! cloth kilometres from local zero), `World::set_origin` moves it (e.g. after the cloth
+//! travelled far), `World::shift_origin` follows an engine that recenters its own
 //! coordinates (as Jolt's and PhysX's "shift origin").
 
-use glam::{DVec3, Vec3A};
+use glam::{DMat3, DVec3, Quat, Vec3A};
 
 use crate::collide::Shape;
 use crate::strided::Strided;
@@ -57,15 +61,50 @@ pub(crate) fn rebase(from: DVec3, to: DVec3, x: Vec3A) -> Vec3A {
     (x.as_dvec3() + (from - to)).as_vec3a()
 }
 
+/// A rigid motion of the caller's coordinates, `p ← R p + t`, in `f64` (`World::transform`).
+pub(crate) struct Rigid {
+    rotation: DMat3,
+    translation: DVec3,
+}
+
+impl Rigid {
+    /// The motion of a unit `rotation` and a `translation`.
+    pub(crate) fn new(rotation: Quat, translation: Vec3A) -> Rigid {
+        Rigid {
+            rotation: DMat3::from_quat(rotation.as_dquat()),
+            translation: translation.as_dvec3(),
+        }
+    }
+
+    /// Where the local point `x` (relative to `origin`) goes, in the caller's coordinates.
+    #[inline]
+    pub(crate) fn apply(&self, origin: DVec3, x: Vec3A) -> DVec3 {
+        self.rotation * (x.as_dvec3() + origin) + self.translation
+    }
+}
+
+/// The local point `x` relative to `from`, moved by `motion` (about the caller's zero, not
+/// `from`), relative to `to`: one rounding however far `from` and `to` are from zero.
+#[inline]
+pub(crate) fn moved(from: DVec3, to: DVec3, motion: &Rigid, x: Vec3A) -> Vec3A {
+    (motion.apply(from, x) - to).as_vec3a()
+}
+
 /// The origin for a cloth at `positions`: its bounding box's centre rounded to a multiple of
 /// [`ORIGIN_GRID`] (zero for no vertices or non-finite ones, which init refuses anyway).
 pub(crate) fn origin_for(positions: &Strided<'_, 3>) -> DVec3 {
-    let (lo, hi) = (0..positions.count())
-        .filter_map(|i| positions.get(i))
-        .map(|p| DVec3::from(p.map(f64::from)))
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
+    origin_around(
+        (0..positions.count())
+            .filter_map(|i| positions.get(i))
+            .map(|p| DVec3::from(p.map(f64::from))),
+    )
+}
+
+/// [`origin_for`] points of the caller's coordinates in `f64`.
+pub(crate) fn origin_around(points: impl Iterator<Item = DVec3>) -> DVec3 {
+    let (lo, hi) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    });
     let centre = (lo + hi) * 0.5;
     let origin = (centre / ORIGIN_GRID).round() * ORIGIN_GRID;
     if origin.is_finite() {
@@ -88,6 +127,13 @@ mod tests {
         assert_eq!(x, Vec3A::new(16.5, 0.75, 1.5));
         assert_eq!(to_world(far, x), p);
         assert_eq!(rebase(far, DVec3::ZERO, x), Vec3A::from(p));
+        // a half turn about the caller's z axis (not about `far`), then 1 m along x
+        let half_turn = Rigid::new(Quat::from_xyzw(0.0, 0.0, 1.0, 0.0), Vec3A::X);
+        let there = DVec3::new(-9984.0, 0.0, 0.0);
+        assert_eq!(
+            moved(far, there, &half_turn, x),
+            Vec3A::new(-15.5, 63.25, 1.5)
+        );
 
         let near = [[-1.0f32, 0.0, 2.0], [1.5, 3.0, 2.0]];
         assert_eq!(origin_for(&Strided::from_slice(&near)), DVec3::ZERO);
