@@ -77,14 +77,7 @@ impl Shape {
             },
             Shape::Sphere { center, radius } => sphere_proximity(center, radius, p),
             Shape::Capsule { a, b, radius } => {
-                let ab = b - a;
-                let len2 = ab.length_squared();
-                let t = if len2 > 0.0 {
-                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                sphere_proximity(a + ab * t, radius, p)
+                sphere_proximity(a.lerp(b, closest_on_segment(a, b, p)), radius, p)
             }
             Shape::Shell { center, radius } => {
                 let inside = sphere_proximity(center, radius, p);
@@ -180,19 +173,146 @@ impl Shape {
                 (center - c0) + n * (radius - r0)
             }
             (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
-                let ab = b - a;
-                let len2 = ab.length_squared();
-                let t = if len2 > 0.0 {
-                    ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (a - a0).lerp(b - b0, t)
+                (a - a0).lerp(b - b0, closest_on_segment(a, b, p))
             }
             _ => Vec3A::ZERO,
         };
         v / dt
     }
+}
+
+/// Which parts of the cloth a shape is tested against. A plane's or a shell's solid is the
+/// outside of a convex set or a half-space, so an edge or a face whose corners are all clear of
+/// it is clear too: vertices suffice. A sphere or a capsule can lie between the corners (a
+/// pole under an edge, a fingertip under a face), so edges and faces are tested as well.
+impl Shape {
+    /// The core a sphere or capsule is the `radius`-neighbourhood of: a segment (a point for a
+    /// sphere) and the radius; `None` for the shapes vertices suffice for.
+    fn core(&self) -> Option<(Vec3A, Vec3A, f32)> {
+        match *self {
+            Shape::Sphere { center, radius } => Some((center, center, radius)),
+            Shape::Capsule { a, b, radius } => Some((a, b, radius)),
+            Shape::Plane { .. } | Shape::Shell { .. } => None,
+        }
+    }
+
+    /// Whether the shape can touch the cloth between its vertices (a sphere or a capsule).
+    pub fn between_vertices(&self) -> bool {
+        self.core().is_some()
+    }
+
+    /// The point of the cloth edge `p`–`q` nearest to a sphere or capsule: its parameter `s`
+    /// (the point is `p + s (q − p)`) and the proximity there. `None` for a plane or a shell
+    /// (see above).
+    pub fn segment_proximity(&self, p: Vec3A, q: Vec3A) -> Option<(f32, Proximity)> {
+        let (a, b, radius) = self.core()?;
+        let (s, t) = closest_between_segments(p, q, a, b);
+        Some((s, sphere_proximity(a.lerp(b, t), radius, p.lerp(q, s))))
+    }
+
+    /// The point of the cloth triangle `p` nearest to a sphere or capsule: its barycentric
+    /// weights and the proximity there. `None` for a plane or a shell (see above). For a
+    /// capsule the nearest pair is found by alternating projections between the triangle and
+    /// the axis (both convex, so it converges; a few rounds place it well within a thickness for
+    /// the contact test).
+    pub fn triangle_proximity(&self, p: [Vec3A; 3]) -> Option<([f32; 3], Proximity)> {
+        let (a, b, radius) = self.core()?;
+        let [p0, p1, p2] = p;
+        let at = |w: [f32; 3]| p0 * w[0] + p1 * w[1] + p2 * w[2];
+        let mut c = a.lerp(b, 0.5);
+        let mut w = closest_on_triangle(p, c);
+        if a != b {
+            for _ in 0..3 {
+                c = a.lerp(b, closest_on_segment(a, b, at(w)));
+                w = closest_on_triangle(p, c);
+            }
+        }
+        Some((w, sphere_proximity(c, radius, at(w))))
+    }
+}
+
+/// Parameter in [0, 1] of the point of segment `a`–`b` nearest to `p`.
+fn closest_on_segment(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Parameters `(s, t)` of the nearest points of segments `p`–`q` and `a`–`b` (Ericson,
+/// Real-Time Collision Detection, 5.1.9).
+fn closest_between_segments(p: Vec3A, q: Vec3A, a: Vec3A, b: Vec3A) -> (f32, f32) {
+    let (d1, d2, r) = (q - p, b - a, p - a);
+    let (aa, ee, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    if aa <= f32::EPSILON * ee.max(1.0) {
+        return (0.0, closest_on_segment(a, b, p));
+    }
+    let c = d1.dot(r);
+    if ee <= f32::EPSILON * aa {
+        return (closest_on_segment(p, q, a), 0.0);
+    }
+    let bb = d1.dot(d2);
+    let denom = aa * ee - bb * bb;
+    // parallel segments: any s works; 0, then t follows
+    let mut s = if denom > f32::EPSILON * aa * ee {
+        ((bb * f - c * ee) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut t = (bb * s + f) / ee;
+    if t < 0.0 {
+        t = 0.0;
+        s = (-c / aa).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((bb - c) / aa).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+/// Barycentric weights of the point of triangle `t` nearest to `x` (Ericson, 5.1.5).
+fn closest_on_triangle(t: [Vec3A; 3], x: Vec3A) -> [f32; 3] {
+    let [a, b, c] = t;
+    let (ab, ac, ap) = (b - a, c - a, x - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = x - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = x - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let sum = va + vb + vc;
+    if sum.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        // a degenerate triangle: its first corner
+        return [1.0, 0.0, 0.0];
+    }
+    let (v, w) = (vb / sum, vc / sum);
+    [1.0 - v - w, v, w]
 }
 
 fn sphere_proximity(center: Vec3A, radius: f32, p: Vec3A) -> Proximity {
