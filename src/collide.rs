@@ -4,7 +4,10 @@
 //! Contact enters the step twice (docs/ARCHITECTURE.md, "One step, in order"):
 //! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets
 //!   a one-direction constraint in the PCG filter (Baraff & Witkin 1998 §5.3): its velocity
-//!   along the contact normal is prescribed so that it ends the step on the offset surface;
+//!   along the contact normal is prescribed so that it ends the step on the offset surface. A
+//!   sphere or capsule thinner than the cloth's spacing is also found between vertices, at the
+//!   nearest point of an edge ([`Shape::segment_proximity`]) or a face
+//!   ([`Shape::triangle_proximity`]), whose corners are then held along that normal;
 //! * after the solve, positions are projected out of every collider's offset surface (so no
 //!   vertex ever ends a step deeper than `thickness`), the inward relative velocity is removed
 //!   and Coulomb friction scales the tangential relative velocity down.
@@ -476,5 +479,60 @@ mod tests {
             radius: -1.0
         }
         .is_valid());
+    }
+
+    #[test]
+    fn edges_and_faces_between_vertices() {
+        let pole = Shape::Capsule {
+            a: Vec3A::new(-1.0, 0.0, 0.0),
+            b: Vec3A::new(1.0, 0.0, 0.0),
+            radius: 0.02,
+        };
+        // an edge crossing over the pole, 5 cm above its axis, a quarter of the way along
+        let (p, q) = (Vec3A::new(0.3, -0.1, 0.05), Vec3A::new(0.3, 0.3, 0.05));
+        let (s, prox) = pole.segment_proximity(p, q).unwrap();
+        assert!((s - 0.25).abs() < 1e-5, "s = {s}");
+        assert!((prox.distance - 0.03).abs() < 1e-5 && (prox.normal - Vec3A::Z).length() < 1e-5);
+        // skew edges: the nearest pair of two crossing lines, then clamped to an end
+        let (s, prox) = pole
+            .segment_proximity(Vec3A::new(0.5, 0.0, 0.1), Vec3A::new(0.5, 0.0, 0.5))
+            .unwrap();
+        assert_eq!(s, 0.0);
+        assert!((prox.distance - 0.08).abs() < 1e-5);
+        // a sphere under the middle of a triangle: its vertices and edges are far, the face
+        // is 1 cm above the surface
+        let ball = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 0.03,
+        };
+        let tri = [
+            Vec3A::new(-0.1, -0.1, 0.04),
+            Vec3A::new(0.1, -0.1, 0.04),
+            Vec3A::new(0.0, 0.1, 0.04),
+        ];
+        let (w, prox) = ball.triangle_proximity(tri).unwrap();
+        let at = tri[0] * w[0] + tri[1] * w[1] + tri[2] * w[2];
+        assert!((at - Vec3A::new(0.0, 0.0, 0.04)).length() < 1e-5, "{at}");
+        assert!((prox.distance - 0.01).abs() < 1e-5);
+        // a capsule's end under the face: the nearest pair between the face and the axis
+        let finger = Shape::Capsule {
+            a: Vec3A::new(0.0, 0.0, -0.5),
+            b: Vec3A::ZERO,
+            radius: 0.03,
+        };
+        let (_, prox) = finger.triangle_proximity(tri).unwrap();
+        assert!((prox.distance - 0.01).abs() < 1e-5, "{}", prox.distance);
+        // beside a corner, the corner is nearest
+        let (w, _) = ball
+            .triangle_proximity(tri.map(|p| p + Vec3A::new(0.2, 0.2, 0.0)))
+            .unwrap();
+        assert_eq!(w, [1.0, 0.0, 0.0]);
+        // planes and shells are tested at vertices only
+        let floor = Shape::Plane {
+            normal: Vec3A::Z,
+            offset: 0.0,
+        };
+        assert!(floor.segment_proximity(p, q).is_none() && !floor.between_vertices());
+        assert!(pole.between_vertices() && ball.between_vertices());
     }
 }

@@ -2,8 +2,10 @@
 //!
 //! Before the solve ([`constrain`]): each pin and each contact becomes a per-vertex filter of
 //! the modified PCG (Baraff & Witkin §5.3: `S = 0` for a pin, `S = I − n nᵀ` for a contact or
-//! a pin in a plane, `S = d dᵀ` for a pin on a line) and
-//! a prescribed part of `Δv`. After it ([`resolve`]): Coulomb friction for the contacts the
+//! a pin in a plane, `S = d dᵀ` for a pin on a line) and a prescribed part of `Δv`. A vertex's
+//! contacts (with every collider it touches, and the edge and face contacts of the thin
+//! colliders between its neighbours) share one filter: `I −` the projection onto the span of
+//! their normals ([`Held`]). A pin overrides contacts at its vertex. After it ([`resolve`]): Coulomb friction for the contacts the
 //! solve held, projection out of every collider, pins put exactly on their targets. In
 //! between, [`constraint_work`] measures what moving pins and colliders put into the cloth.
 
@@ -239,32 +241,28 @@ impl Scene<'_> {
                 continue;
             }
             let (before, _) = self.placed(col);
-            for t in self.edge_touches(col, &before, i) {
+            let clearance = self.clearance(col, i);
+            for t in self.edge_touches(col, &before, i, clearance) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
-            for t in self.face_touches(col, &before, i) {
+            for t in self.face_touches(col, &before, i, clearance) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
         }
         hold
     }
 
-    /// Whether `col` could reach a point within `reach` of vertex `i` in this substep: a cheap
-    /// bound before the exact edge and face tests.
-    fn within_reach(
-        &self,
-        col: &collide::Collider,
-        before: &collide::Shape,
-        i: usize,
-        reach: f32,
-    ) -> bool {
+    /// How far `col` stays from vertex `i` beyond what a contact reaches in this substep: an
+    /// edge or face around the vertex can touch `col` only where it extends (or moves relative
+    /// to the vertex) further than this. A cheap bound before the exact edge and face tests.
+    fn clearance(&self, col: &collide::Collider, i: usize) -> f32 {
         let (Some(&xi), Some(&vi)) = (self.x.get(i), self.v.get(i)) else {
-            return false;
+            return f32::INFINITY;
         };
-        let (_, shape) = self.placed(col);
-        let vs = shape.surface_velocity(before, xi, self.sub.h);
+        let (before, shape) = self.placed(col);
+        let vs = shape.surface_velocity(&before, xi, self.sub.h);
         let travel = self.sub.h * (vi - vs).length();
-        before.proximity(xi).distance < reach + travel + col.thickness * 1.1 + self.slop_fall
+        before.proximity(xi).distance - travel - col.thickness * 1.1 - self.slop_fall
     }
 
     fn edge_touches<'a>(
@@ -272,6 +270,7 @@ impl Scene<'_> {
         col: &'a collide::Collider,
         before: &'a collide::Shape,
         i: usize,
+        clearance: f32,
     ) -> impl Iterator<Item = Touch> + 'a {
         let ring = ring_of(self.ring_start, self.ring, i);
         ring.iter().filter_map(move |&j| {
@@ -282,13 +281,9 @@ impl Scene<'_> {
                 self.x.get(j)?,
                 self.v.get(j)?,
             );
-            // the other end moves too: twice the edge's speed bounds the contact point's
-            if !self.within_reach(
-                col,
-                before,
-                i,
-                (xj - xi).length() + self.sub.h * (vj - vi).length(),
-            ) {
+            // a distance changes no faster than the point moves: the edge's points lie within
+            // its length of the vertex and move relative to it no faster than the other end
+            if clearance >= (xj - xi).length() + self.sub.h * (vj - vi).length() {
                 return None;
             }
             let (s, prox) = before.segment_proximity(xi, xj)?;
@@ -304,6 +299,7 @@ impl Scene<'_> {
         col: &'a collide::Collider,
         before: &'a collide::Shape,
         i: usize,
+        clearance: f32,
     ) -> impl Iterator<Item = Touch> + 'a {
         let faces = ring_of(self.vt_start, self.vt, i);
         faces.iter().filter_map(move |&t| {
@@ -314,8 +310,8 @@ impl Scene<'_> {
             let (xi, vi) = (*self.x.get(i)?, *self.v.get(i)?);
             let size = p.iter().map(|&pk| (pk - xi).length()).fold(0.0, f32::max);
             let speed = q.iter().map(|&vk| (vk - vi).length()).fold(0.0, f32::max);
-            if !self.within_reach(col, before, i, size + self.sub.h * speed) {
-                return None;
+            if clearance >= size + self.sub.h * speed {
+                return None; // as for an edge
             }
             let (w, prox) = before.triangle_proximity(p)?;
             if w.iter().any(|&wk| wk <= 0.0) {
@@ -695,4 +691,51 @@ fn projection_is_driven(
         }
     }
     Ok(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One normal leaves its plane free, two independent ones the line along their cross
+    /// product, three nothing; the velocity meets every target at once; a nearly parallel
+    /// contact adds no direction, and the stricter target wins.
+    #[test]
+    fn held_normals_span_the_filter() {
+        let (s, c) = 15f32.to_radians().sin_cos();
+        let (left, right) = (Vec3A::new(s, 0.0, c), Vec3A::new(-s, 0.0, c));
+        let mut held = Held::default();
+        held.add(left, 0.1, 0.0);
+        let free = held.free();
+        assert!((free * left).length() < 1e-5 && (free * Vec3A::Y - Vec3A::Y).length() < 1e-5);
+        held.add(right, 0.2, 0.3);
+        let free = held.free();
+        assert!((free - outer(Vec3A::Y, Vec3A::Y))
+            .to_cols_array()
+            .iter()
+            .all(|e| e.abs() < 1e-5));
+        let v = held.velocity(Vec3A::new(5.0, 7.0, -9.0));
+        assert!((v.dot(left) - 0.1).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
+        assert!((v.y - 7.0).abs() < 1e-5, "the free direction is kept: {v}");
+        let w = held.surface_velocity(Vec3A::ZERO);
+        assert!(w.dot(left).abs() < 1e-5 && (w.dot(right) - 0.3).abs() < 1e-5);
+        held.add(Vec3A::Y, -0.5, 0.0);
+        assert_eq!(held.count, 3);
+        assert!(held.free().to_cols_array().iter().all(|e| e.abs() < 1e-5));
+        let v = held.velocity(Vec3A::ZERO);
+        assert!((v.y + 0.5).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
+        // a fourth contact cannot add a direction
+        held.add(Vec3A::X, 1.0, 0.0);
+        assert_eq!(held.count, 3);
+
+        let mut twins = Held::default();
+        twins.add(Vec3A::Z, 0.1, 0.0);
+        let tilted = Vec3A::new(0.05, 0.0, 1.0).normalize();
+        twins.add(tilted, 0.3, 0.0);
+        assert_eq!(twins.count, 1);
+        assert!((twins.velocity(Vec3A::ZERO).dot(tilted) - 0.3).abs() < 1e-5);
+        // a looser one changes nothing
+        twins.add(tilted, 0.0, 0.0);
+        assert!((twins.velocity(Vec3A::ZERO).dot(tilted) - 0.3).abs() < 1e-5);
+    }
 }
