@@ -204,6 +204,17 @@ impl Shape {
         self.core().is_some()
     }
 
+    /// The shortest cloth edge that can cut into a sphere or capsule while both its ends stay
+    /// outside its offset surface (`thickness` beyond it): a chord of length `L` between two
+    /// points at `ρ = radius + thickness` from the core comes within `√(ρ² − L²/4)` of it, which
+    /// is inside the radius only when `L ≥ 2 √(thickness (2 radius + thickness))`. Shorter
+    /// edges dip into the thickness at most, and the vertex contacts suffice. `None` for a
+    /// plane or a shell (vertices always suffice).
+    pub fn shortest_cutting_edge(&self, thickness: f32) -> Option<f32> {
+        let (_, _, radius) = self.core()?;
+        Some(2.0 * libm::sqrtf((thickness * (2.0 * radius + thickness)).max(0.0)))
+    }
+
     /// The point of the cloth edge `p`–`q` nearest to a sphere or capsule: its parameter `s`
     /// (the point is `p + s (q − p)`) and the proximity there. `None` for a plane or a shell
     /// (see above).
@@ -534,5 +545,10 @@ mod tests {
         };
         assert!(floor.segment_proximity(p, q).is_none() && !floor.between_vertices());
         assert!(pole.between_vertices() && ball.between_vertices());
+        // a chord of that length with its ends on the offset surface just touches the sphere
+        let cut = ball.shortest_cutting_edge(0.005).unwrap();
+        let rho = 0.035f32;
+        assert!(((rho * rho - cut * cut / 4.0).sqrt() - 0.03).abs() < 1e-6);
+        assert!(floor.shortest_cutting_edge(0.005).is_none());
     }
 }

@@ -41,65 +41,71 @@ fn pins_on(c: &Counts, st: &Settings) -> bool {
 
 /// The directions a vertex is held along in a substep, orthonormalized (at most three; Gram–
 /// Schmidt over the contact normals in the order they come), each with the velocity the vertex
-/// must have along it at the end of the substep (`target`) and the velocity along it of the
-/// surfaces that hold it (`surface`, what a moving collider's work is measured with). One
-/// normal gives the filter `I − n nᵀ`, two independent ones the line along `n₁ × n₂`, three
-/// none: a vertex in the groove of two colliders satisfies both at once instead of being
-/// pushed out of each in turn.
+/// must have along it at the end of the substep and the velocity along it of the surfaces that
+/// hold it (what a moving collider's work is measured with). One normal gives the filter
+/// `I − n nᵀ`, two independent ones the line along `n₁ × n₂`, three none: a vertex in the
+/// groove of two colliders satisfies both at once instead of being pushed out of each in turn.
 #[derive(Clone, Copy, Default)]
 struct Held {
     axes: [Vec3A; 3],
-    target: [f32; 3],
-    surface: [f32; 3],
+    /// Per axis: the target velocity, the same without drawing toward a surface (`firm`), and
+    /// the surface's velocity (see [`Held::add`]).
+    values: [Vec3A; 3],
     count: usize,
+    /// Contacts added (more than the axes when some were nearly parallel).
+    contacts: usize,
 }
 
 impl Held {
-    /// Holds `n · v = target` (`n` unit; `surface`: the holding surface's velocity along `n`).
+    /// Holds `n · v = target` (`n` unit; `surface`: the holding surface's velocity along `n`;
+    /// a `target` below it draws the vertex toward the surface).
     fn add(&mut self, n: Vec3A, target: f32, surface: f32) {
-        let (mut rest, mut target, mut surface) = (n, target, surface);
-        let held = self.axes.iter().zip(&self.target).zip(&self.surface);
+        self.contacts += 1;
+        let (mut rest, mut rhs) = (n, Vec3A::new(target, target.max(surface), surface));
         let mut most_aligned = (0.0f32, 0usize);
-        for (k, ((&axis, &t), &s)) in held.take(self.count).enumerate() {
+        let held = self.axes.iter().zip(&self.values).take(self.count);
+        for (k, (&axis, &values)) in held.enumerate() {
             let along = n.dot(axis);
             rest -= axis * along;
-            target -= along * t;
-            surface -= along * s;
+            rhs -= values * along;
             if along.abs() > most_aligned.0.abs() {
                 most_aligned = (along, k);
             }
         }
         let len = rest.length();
         // Below ~12° from the held span a contact adds no direction of its own: what it asks
-        // beyond the held velocities (`target` > 0: more outward motion) goes on the held axis
-        // it is closest to, so the stricter of two nearly parallel contacts wins.
+        // beyond the held velocities (more outward motion) goes on the held axis it is closest
+        // to, so the stricter of two nearly parallel contacts wins.
         if len > 0.2 {
-            if let (Some(axis), Some(t), Some(s)) = (
+            if let (Some(axis), Some(values)) = (
                 self.axes.get_mut(self.count),
-                self.target.get_mut(self.count),
-                self.surface.get_mut(self.count),
+                self.values.get_mut(self.count),
             ) {
-                (*axis, *t, *s) = (rest / len, target / len, surface / len);
+                (*axis, *values) = (rest / len, rhs / len);
                 self.count += 1;
                 return;
             }
         }
         let (along, k) = most_aligned;
-        if target > 0.0 && along != 0.0 {
-            if let (Some(t), Some(s)) = (self.target.get_mut(k), self.surface.get_mut(k)) {
-                *t += target / along;
-                *s += surface / along;
-            }
+        if let (Some(values), true) = (self.values.get_mut(k), along != 0.0) {
+            let raise = |r: f32| r.max(0.0) / along;
+            let target = raise(rhs.x);
+            let surface = if target != 0.0 { rhs.z / along } else { 0.0 };
+            *values += Vec3A::new(target, raise(rhs.y), surface);
         }
     }
 
+    /// The held axes with the velocity each prescribes and its surface's velocity. A vertex
+    /// held by one contact may be drawn toward its surface; one held by several is not: their
+    /// normals can be nearly parallel (an edge's and a vertex's on a sphere), and two different
+    /// draws along them would ask a large velocity across them (measured: energy put in).
     fn axes(&self) -> impl Iterator<Item = (Vec3A, f32, f32)> + '_ {
+        let single = self.contacts <= 1;
         self.axes
             .iter()
-            .zip(&self.target)
-            .zip(&self.surface)
+            .zip(&self.values)
             .take(self.count)
-            .map(|((&a, &t), &s)| (a, t, s))
+            .map(move |(&a, &v)| (a, if single { v.x } else { v.y }, v.z))
     }
 
     /// The PCG filter: the directions left free, `I − Σ a aᵀ`.
@@ -108,7 +114,7 @@ impl Held {
             .fold(Mat3A::IDENTITY, |f, (a, _, _)| f - outer(a, a))
     }
 
-    /// The velocity with the held components `target` and the free ones of `free_v`.
+    /// The velocity with the held components prescribed and the free ones of `free_v`.
     fn velocity(&self, free_v: Vec3A) -> Vec3A {
         self.axes()
             .fold(self.free() * free_v, |v, (a, t, _)| v + a * t)
@@ -174,13 +180,14 @@ impl Scene<'_> {
     /// `col` in this substep. Its distance at the start, advanced by its velocity relative to
     /// the collider's surface, must end within the thickness plus a small slop (a linear sweep
     /// of both, so a fast collider neither tunnels nor pushes what it does not reach within the
-    /// substep).
+    /// substep). `at_vertex`: the point is a vertex, not a point of an edge or a face.
     fn touch(
         &self,
         col: &collide::Collider,
         p: Vec3A,
         vp: Vec3A,
         prox: collide::Proximity,
+        at_vertex: bool,
     ) -> Option<Touch> {
         let h = self.sub.h;
         let (before, shape) = self.placed(col);
@@ -195,14 +202,23 @@ impl Scene<'_> {
         if predicted >= col.thickness * 1.1 + self.slop_fall {
             return None;
         }
-        // end the substep on the offset surface, moving with the collider, but push out of a
-        // penetration no faster than the depenetration speed (the projection after the step
-        // corrects the rest by position only); and a point held within the slop above the
+        // End the substep on the offset surface, moving with the collider. A vertex is pushed
+        // out of a penetration no faster than the depenetration speed (the projection after
+        // the step corrects the rest by position only), and one held within the slop above the
         // surface is drawn to it no faster than gravity's pull toward the surface alone would
-        // in a substep (held, not glued)
-        let pull = (-self.gravity.dot(nrm)).max(0.0) * h;
+        // in a substep (held, not glued). A contact between vertices holds every corner, so it
+        // does not draw: it approaches no faster than it already does (an inelastic stop).
+        // Measured: drawing the corners of the edges resting on a sphere put energy in at most
+        // steps.
+        let approach = (vp - vs).dot(nrm).min(0.0);
+        let (push_max, pull) = if at_vertex {
+            let pull = (-self.gravity.dot(nrm)).max(0.0) * h;
+            (self.max_depenetration_speed, pull)
+        } else {
+            (0.0, -approach)
+        };
         let push = ((col.thickness - prox.distance) / h)
-            .min(self.max_depenetration_speed)
+            .min(push_max)
             .max(-pull);
         Some(Touch {
             normal: nrm,
@@ -215,16 +231,19 @@ impl Scene<'_> {
     /// Whether vertex `i` touches `col` itself.
     fn vertex_touch(&self, col: &collide::Collider, i: usize) -> Option<Touch> {
         let (&xi, &vi) = (self.x.get(i)?, self.v.get(i)?);
-        self.touch(col, xi, vi, self.placed(col).0.proximity(xi))
+        let prox = self.placed(col).0.proximity(xi);
+        self.touch(col, xi, vi, prox, true)
     }
 
     /// Everything vertex `i` touches: each collider at the vertex; and, for a sphere or a
-    /// capsule the vertex does not touch, the interior of each edge and face around it whose
-    /// corners do not touch it either (a thin collider between vertices). An edge or face
-    /// contact holds every corner along the contact normal to the contact point's target
-    /// velocity: conservative (it also stops the edge from tilting along the normal), but
-    /// what the per-vertex filter can hold, and the contact point then moves as required.
-    /// Edge and face contacts are frictionless.
+    /// capsule the vertex does not touch, the interior of each edge and face around it long
+    /// enough to cut into it (a thin collider between vertices). Such a contact holds the
+    /// corners that do not touch the collider themselves along its normal, to the contact
+    /// point's target velocity: conservative (it also stops the edge from tilting along the
+    /// normal), but what the per-vertex filter can hold, and the contact point then moves as
+    /// required. A corner that touches keeps its own contact only (adding the edge's normals,
+    /// nearly parallel to its own, put energy into cloth swept by a fast sphere). Edge and face
+    /// contacts are frictionless.
     fn hold(&self, i: usize) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
@@ -237,15 +256,15 @@ impl Scene<'_> {
                 }
                 continue;
             }
-            if !col.shape.between_vertices() {
-                continue;
-            }
             let (before, _) = self.placed(col);
+            let Some(cutting) = before.shortest_cutting_edge(col.thickness) else {
+                continue;
+            };
             let clearance = self.clearance(col, i);
-            for t in self.edge_touches(col, &before, i, clearance) {
+            for t in self.edge_touches(col, &before, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
-            for t in self.face_touches(col, &before, i, clearance) {
+            for t in self.face_touches(col, &before, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
         }
@@ -271,6 +290,7 @@ impl Scene<'_> {
         before: &'a collide::Shape,
         i: usize,
         clearance: f32,
+        cutting: f32,
     ) -> impl Iterator<Item = Touch> + 'a {
         let ring = ring_of(self.ring_start, self.ring, i);
         ring.iter().filter_map(move |&j| {
@@ -283,14 +303,16 @@ impl Scene<'_> {
             );
             // a distance changes no faster than the point moves: the edge's points lie within
             // its length of the vertex and move relative to it no faster than the other end
-            if clearance >= (xj - xi).length() + self.sub.h * (vj - vi).length() {
+            let len = (xj - xi).length();
+            if len < cutting || clearance >= len + self.sub.h * (vj - vi).length() {
                 return None;
             }
             let (s, prox) = before.segment_proximity(xi, xj)?;
-            if s <= 0.0 || s >= 1.0 || self.vertex_touch(col, j).is_some() {
-                return None; // a corner is nearest, or touches: the vertex contact's
+            // a corner is nearest: the vertex contact's (vertex `i` does not touch `col`)
+            if s <= 0.0 || s >= 1.0 {
+                return None;
             }
-            self.touch(col, xi.lerp(xj, s), vi.lerp(vj, s), prox)
+            self.touch(col, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
         })
     }
 
@@ -300,6 +322,7 @@ impl Scene<'_> {
         before: &'a collide::Shape,
         i: usize,
         clearance: f32,
+        cutting: f32,
     ) -> impl Iterator<Item = Touch> + 'a {
         let faces = ring_of(self.vt_start, self.vt, i);
         faces.iter().filter_map(move |&t| {
@@ -310,8 +333,14 @@ impl Scene<'_> {
             let (xi, vi) = (*self.x.get(i)?, *self.v.get(i)?);
             let size = p.iter().map(|&pk| (pk - xi).length()).fold(0.0, f32::max);
             let speed = q.iter().map(|&vk| (vk - vi).length()).fold(0.0, f32::max);
-            if clearance >= size + self.sub.h * speed {
-                return None; // as for an edge
+            // as for an edge; a face's points lie within its circumradius of a corner, at
+            // most its longest side over √3 (half of it for an obtuse one)
+            let longest = (p[1] - p[0])
+                .length()
+                .max((p[2] - p[1]).length())
+                .max((p[0] - p[2]).length());
+            if longest * 2.0 * FRAC_1_SQRT_3 < cutting || clearance >= size + self.sub.h * speed {
+                return None;
             }
             let (w, prox) = before.triangle_proximity(p)?;
             if w.iter().any(|&wk| wk <= 0.0) {
@@ -324,10 +353,13 @@ impl Scene<'_> {
                 return None;
             }
             let at = |y: [Vec3A; 3]| y[0] * w[0] + y[1] * w[1] + y[2] * w[2];
-            self.touch(col, at(p), at(q), prox)
+            self.touch(col, at(p), at(q), prox, false)
         })
     }
 }
+
+/// `1/√3`: a face's circumradius is at most its longest side times this.
+const FRAC_1_SQRT_3: f32 = 0.577_350_26;
 
 /// The CSR row `i` of `(start, items)`, empty when out of range.
 fn ring_of<'r>(start: &[u32], items: &'r [u32], i: usize) -> &'r [u32] {
@@ -708,7 +740,7 @@ mod tests {
         held.add(left, 0.1, 0.0);
         let free = held.free();
         assert!((free * left).length() < 1e-5 && (free * Vec3A::Y - Vec3A::Y).length() < 1e-5);
-        held.add(right, 0.2, 0.3);
+        held.add(right, 0.2, 0.1);
         let free = held.free();
         assert!((free - outer(Vec3A::Y, Vec3A::Y))
             .to_cols_array()
@@ -718,12 +750,12 @@ mod tests {
         assert!((v.dot(left) - 0.1).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
         assert!((v.y - 7.0).abs() < 1e-5, "the free direction is kept: {v}");
         let w = held.surface_velocity(Vec3A::ZERO);
-        assert!(w.dot(left).abs() < 1e-5 && (w.dot(right) - 0.3).abs() < 1e-5);
-        held.add(Vec3A::Y, -0.5, 0.0);
+        assert!(w.dot(left).abs() < 1e-5 && (w.dot(right) - 0.1).abs() < 1e-5);
+        held.add(Vec3A::Y, 0.5, 0.0);
         assert_eq!(held.count, 3);
         assert!(held.free().to_cols_array().iter().all(|e| e.abs() < 1e-5));
         let v = held.velocity(Vec3A::ZERO);
-        assert!((v.y + 0.5).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
+        assert!((v.y - 0.5).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
         // a fourth contact cannot add a direction
         held.add(Vec3A::X, 1.0, 0.0);
         assert_eq!(held.count, 3);
@@ -737,5 +769,16 @@ mod tests {
         // a looser one changes nothing
         twins.add(tilted, 0.0, 0.0);
         assert!((twins.velocity(Vec3A::ZERO).dot(tilted) - 0.3).abs() < 1e-5);
+
+        // one contact may draw the vertex toward its surface; with two, neither draws
+        let mut drawn = Held::default();
+        drawn.add(Vec3A::Z, -0.2, 0.0);
+        assert!((drawn.velocity(Vec3A::ZERO).z + 0.2).abs() < 1e-6);
+        drawn.add(Vec3A::X, -0.1, 0.0);
+        assert!(drawn
+            .velocity(Vec3A::ONE)
+            .abs()
+            .cmple(Vec3A::new(1e-6, 1.0, 1e-6))
+            .all());
     }
 }
