@@ -247,6 +247,18 @@ impl Scene<'_> {
     fn hold(&self, i: usize) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
+        // No face around the vertex has a side longer than twice its longest edge (the side
+        // opposite the vertex is at most the sum of the other two): a bound, once per vertex,
+        // that spares the edge and face tests where the cloth is finer than the colliders.
+        let reach = self.x.get(i).map_or(0.0, |&xi| {
+            let ring = ring_of(self.ring_start, self.ring, i);
+            let longest = ring
+                .iter()
+                .filter_map(|&j| self.x.get(j as usize))
+                .map(|&xj| (xj - xi).length_squared())
+                .fold(0.0, f32::max);
+            2.0 * libm::sqrtf(longest) * 2.0 * FRAC_1_SQRT_3
+        });
         for (k, col) in self.colliders.iter().enumerate() {
             if let Some(t) = self.vertex_touch(col, i) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
@@ -257,7 +269,10 @@ impl Scene<'_> {
                 continue;
             }
             let (before, _) = self.placed(col);
-            let Some(cutting) = before.shortest_cutting_edge(col.thickness) else {
+            let Some(cutting) = before
+                .shortest_cutting_edge(col.thickness)
+                .filter(|&cutting| cutting <= reach)
+            else {
                 continue;
             };
             let clearance = self.clearance(col, i);
