@@ -5,7 +5,10 @@
 //! Contact enters the step twice (docs/ARCHITECTURE.md, "One step, in order"):
 //! * before the solve, a vertex that is within `thickness` of a collider and moving into it gets
 //!   a one-direction constraint in the PCG filter (Baraff & Witkin 1998 §5.3): its velocity
-//!   along the contact normal is prescribed so that it ends the step on the offset surface;
+//!   along the contact normal is prescribed so that it ends the step on the offset surface. A
+//!   sphere or capsule thinner than the cloth's spacing is also found between vertices, at the
+//!   nearest point of an edge ([`Shape::segment_proximity`]) or a face
+//!   ([`Shape::triangle_proximity`]), whose corners are then held along that normal;
 //! * after the solve, positions are projected out of every collider's offset surface (so no
 //!   vertex ever ends a step deeper than `thickness`), the inward relative velocity is removed
 //!   and Coulomb friction scales the tangential relative velocity down.
@@ -79,7 +82,7 @@ impl Shape {
             },
             Shape::Sphere { center, radius } => sphere_proximity(center, radius, p),
             Shape::Capsule { a, b, radius } => {
-                sphere_proximity(a + (b - a) * segment_param(a, b, p), radius, p)
+                sphere_proximity(a.lerp(b, closest_on_segment(a, b, p)), radius, p)
             }
             Shape::Shell { center, radius } => {
                 let inside = sphere_proximity(center, radius, p);
@@ -103,7 +106,7 @@ impl Shape {
             }
             Shape::Capsule { a, b, radius } => {
                 let r = radius + thickness;
-                (p - a - (b - a) * segment_param(a, b, p)).length_squared() < r * r
+                (p - a - (b - a) * closest_on_segment(a, b, p)).length_squared() < r * r
             }
             Shape::Shell { .. } => self.proximity(p).distance < thickness,
         }
@@ -218,7 +221,7 @@ impl Shape {
                 (center - c0) + n * (radius - r0)
             }
             (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
-                (a - a0).lerp(b - b0, segment_param(a, b, p))
+                (a - a0).lerp(b - b0, closest_on_segment(a, b, p))
             }
             _ => Vec3A::ZERO,
         };
@@ -326,9 +329,69 @@ impl<'c> ColliderSet<'c> {
     }
 }
 
-/// The parameter in [0, 1] of the point of segment `a`–`b` nearest to `p`.
-#[inline]
-fn segment_param(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
+/// Which parts of the cloth a shape is tested against. A plane's or a shell's solid is the
+/// outside of a convex set or a half-space, so an edge or a face whose corners are all clear of
+/// it is clear too: vertices suffice. A sphere or a capsule can lie between the corners (a
+/// pole under an edge, a fingertip under a face), so edges and faces are tested as well.
+impl Shape {
+    /// The core a sphere or capsule is the `radius`-neighbourhood of: a segment (a point for a
+    /// sphere) and the radius; `None` for the shapes vertices suffice for.
+    fn core(&self) -> Option<(Vec3A, Vec3A, f32)> {
+        match *self {
+            Shape::Sphere { center, radius } => Some((center, center, radius)),
+            Shape::Capsule { a, b, radius } => Some((a, b, radius)),
+            Shape::Plane { .. } | Shape::Shell { .. } => None,
+        }
+    }
+
+    /// Whether the shape can touch the cloth between its vertices (a sphere or a capsule).
+    pub fn between_vertices(&self) -> bool {
+        self.core().is_some()
+    }
+
+    /// The shortest cloth edge that can cut into a sphere or capsule while both its ends stay
+    /// outside its offset surface (`thickness` beyond it): a chord of length `L` between two
+    /// points at `ρ = radius + thickness` from the core comes within `√(ρ² − L²/4)` of it, which
+    /// is inside the radius only when `L ≥ 2 √(thickness (2 radius + thickness))`. Shorter
+    /// edges dip into the thickness at most, and the vertex contacts suffice. `None` for a
+    /// plane or a shell (vertices always suffice).
+    pub fn shortest_cutting_edge(&self, thickness: f32) -> Option<f32> {
+        let (_, _, radius) = self.core()?;
+        Some(2.0 * libm::sqrtf((thickness * (2.0 * radius + thickness)).max(0.0)))
+    }
+
+    /// The point of the cloth edge `p`–`q` nearest to a sphere or capsule: its parameter `s`
+    /// (the point is `p + s (q − p)`) and the proximity there. `None` for a plane or a shell
+    /// (see above).
+    pub fn segment_proximity(&self, p: Vec3A, q: Vec3A) -> Option<(f32, Proximity)> {
+        let (a, b, radius) = self.core()?;
+        let (s, t) = closest_between_segments(p, q, a, b);
+        Some((s, sphere_proximity(a.lerp(b, t), radius, p.lerp(q, s))))
+    }
+
+    /// The point of the cloth triangle `p` nearest to a sphere or capsule: its barycentric
+    /// weights and the proximity there. `None` for a plane or a shell (see above). For a
+    /// capsule the nearest pair is found by alternating projections between the triangle and
+    /// the axis (both convex, so it converges; a few rounds place it well within a thickness for
+    /// the contact test).
+    pub fn triangle_proximity(&self, p: [Vec3A; 3]) -> Option<([f32; 3], Proximity)> {
+        let (a, b, radius) = self.core()?;
+        let [p0, p1, p2] = p;
+        let at = |w: [f32; 3]| p0 * w[0] + p1 * w[1] + p2 * w[2];
+        let mut c = a.lerp(b, 0.5);
+        let mut w = closest_on_triangle(p, c);
+        if a != b {
+            for _ in 0..3 {
+                c = a.lerp(b, closest_on_segment(a, b, at(w)));
+                w = closest_on_triangle(p, c);
+            }
+        }
+        Some((w, sphere_proximity(c, radius, at(w))))
+    }
+}
+
+/// Parameter in [0, 1] of the point of segment `a`–`b` nearest to `p`.
+fn closest_on_segment(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
     let ab = b - a;
     let len2 = ab.length_squared();
     if len2 > 0.0 {
@@ -336,6 +399,79 @@ fn segment_param(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
     } else {
         0.0
     }
+}
+
+/// Parameters `(s, t)` of the nearest points of segments `p`–`q` and `a`–`b` (Ericson,
+/// Real-Time Collision Detection, 5.1.9).
+fn closest_between_segments(p: Vec3A, q: Vec3A, a: Vec3A, b: Vec3A) -> (f32, f32) {
+    let (d1, d2, r) = (q - p, b - a, p - a);
+    let (aa, ee, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    if aa <= f32::EPSILON * ee.max(1.0) {
+        return (0.0, closest_on_segment(a, b, p));
+    }
+    let c = d1.dot(r);
+    if ee <= f32::EPSILON * aa {
+        return (closest_on_segment(p, q, a), 0.0);
+    }
+    let bb = d1.dot(d2);
+    let denom = aa * ee - bb * bb;
+    // parallel segments: any s works; 0, then t follows
+    let mut s = if denom > f32::EPSILON * aa * ee {
+        ((bb * f - c * ee) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut t = (bb * s + f) / ee;
+    if t < 0.0 {
+        t = 0.0;
+        s = (-c / aa).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((bb - c) / aa).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+/// Barycentric weights of the point of triangle `t` nearest to `x` (Ericson, 5.1.5).
+fn closest_on_triangle(t: [Vec3A; 3], x: Vec3A) -> [f32; 3] {
+    let [a, b, c] = t;
+    let (ab, ac, ap) = (b - a, c - a, x - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = x - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = x - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let sum = va + vb + vc;
+    if sum.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        // a degenerate triangle: its first corner
+        return [1.0, 0.0, 0.0];
+    }
+    let (v, w) = (vb / sum, vc / sum);
+    [1.0 - v - w, v, w]
 }
 
 #[inline]
@@ -570,5 +706,65 @@ mod tests {
             radius: -1.0
         }
         .is_valid());
+    }
+
+    #[test]
+    fn edges_and_faces_between_vertices() {
+        let pole = Shape::Capsule {
+            a: Vec3A::new(-1.0, 0.0, 0.0),
+            b: Vec3A::new(1.0, 0.0, 0.0),
+            radius: 0.02,
+        };
+        // an edge crossing over the pole, 5 cm above its axis, a quarter of the way along
+        let (p, q) = (Vec3A::new(0.3, -0.1, 0.05), Vec3A::new(0.3, 0.3, 0.05));
+        let (s, prox) = pole.segment_proximity(p, q).unwrap();
+        assert!((s - 0.25).abs() < 1e-5, "s = {s}");
+        assert!((prox.distance - 0.03).abs() < 1e-5 && (prox.normal - Vec3A::Z).length() < 1e-5);
+        // skew edges: the nearest pair of two crossing lines, then clamped to an end
+        let (s, prox) = pole
+            .segment_proximity(Vec3A::new(0.5, 0.0, 0.1), Vec3A::new(0.5, 0.0, 0.5))
+            .unwrap();
+        assert_eq!(s, 0.0);
+        assert!((prox.distance - 0.08).abs() < 1e-5);
+        // a sphere under the middle of a triangle: its vertices and edges are far, the face
+        // is 1 cm above the surface
+        let ball = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 0.03,
+        };
+        let tri = [
+            Vec3A::new(-0.1, -0.1, 0.04),
+            Vec3A::new(0.1, -0.1, 0.04),
+            Vec3A::new(0.0, 0.1, 0.04),
+        ];
+        let (w, prox) = ball.triangle_proximity(tri).unwrap();
+        let at = tri[0] * w[0] + tri[1] * w[1] + tri[2] * w[2];
+        assert!((at - Vec3A::new(0.0, 0.0, 0.04)).length() < 1e-5, "{at}");
+        assert!((prox.distance - 0.01).abs() < 1e-5);
+        // a capsule's end under the face: the nearest pair between the face and the axis
+        let finger = Shape::Capsule {
+            a: Vec3A::new(0.0, 0.0, -0.5),
+            b: Vec3A::ZERO,
+            radius: 0.03,
+        };
+        let (_, prox) = finger.triangle_proximity(tri).unwrap();
+        assert!((prox.distance - 0.01).abs() < 1e-5, "{}", prox.distance);
+        // beside a corner, the corner is nearest
+        let (w, _) = ball
+            .triangle_proximity(tri.map(|p| p + Vec3A::new(0.2, 0.2, 0.0)))
+            .unwrap();
+        assert_eq!(w, [1.0, 0.0, 0.0]);
+        // planes and shells are tested at vertices only
+        let floor = Shape::Plane {
+            normal: Vec3A::Z,
+            offset: 0.0,
+        };
+        assert!(floor.segment_proximity(p, q).is_none() && !floor.between_vertices());
+        assert!(pole.between_vertices() && ball.between_vertices());
+        // a chord of that length with its ends on the offset surface just touches the sphere
+        let cut = ball.shortest_cutting_edge(0.005).unwrap();
+        let rho = 0.035f32;
+        assert!(((rho * rho - cut * cut / 4.0).sqrt() - 0.03).abs() < 1e-6);
+        assert!(floor.shortest_cutting_edge(0.005).is_none());
     }
 }

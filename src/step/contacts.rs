@@ -2,8 +2,10 @@
 //!
 //! Before the solve ([`constrain`]): each pin and each contact becomes a per-vertex filter of
 //! the modified PCG (Baraff & Witkin §5.3: `S = 0` for a pin, `S = I − n nᵀ` for a contact or
-//! a pin in a plane, `S = d dᵀ` for a pin on a line) and
-//! a prescribed part of `Δv`. After it ([`resolve`]): Coulomb friction for the contacts the
+//! a pin in a plane, `S = d dᵀ` for a pin on a line) and a prescribed part of `Δv`. A vertex's
+//! contacts (with every collider it touches, and the edge and face contacts of the thin
+//! colliders between its neighbours) share one filter: `I −` the projection onto the span of
+//! their normals ([`Held`]). A pin overrides contacts at its vertex. After it ([`resolve`]): Coulomb friction for the contacts the
 //! solve held, projection out of every collider, pins put exactly on their targets. In
 //! between, [`constraint_work`] measures what moving pins and colliders put into the cloth.
 
@@ -37,6 +39,429 @@ fn pins_on(c: &Counts, st: &Settings) -> bool {
     st.effects & effects::PINS != 0 && c.pins > 0
 }
 
+/// The directions a vertex is held along in a substep, orthonormalized (at most three; Gram–
+/// Schmidt over the contact normals in the order they come), each with the velocity the vertex
+/// must have along it at the end of the substep and the velocity along it of the surfaces that
+/// hold it (what a moving collider's work is measured with). One normal gives the filter
+/// `I − n nᵀ`, two independent ones the line along `n₁ × n₂`, three none: a vertex in the
+/// groove of two colliders satisfies both at once instead of being pushed out of each in turn.
+#[derive(Clone, Copy, Default)]
+struct Held {
+    axes: [Vec3A; 3],
+    /// Per axis: the target velocity, the same without drawing toward a surface (`firm`), and
+    /// the surface's velocity (see [`Held::add`]).
+    values: [Vec3A; 3],
+    count: usize,
+    /// Contacts added (more than the axes when some were nearly parallel).
+    contacts: usize,
+}
+
+impl Held {
+    /// Holds `n · v = target` (`n` unit; `surface`: the holding surface's velocity along `n`;
+    /// a `target` below it draws the vertex toward the surface).
+    fn add(&mut self, n: Vec3A, target: f32, surface: f32) {
+        self.contacts += 1;
+        let (mut rest, mut rhs) = (n, Vec3A::new(target, target.max(surface), surface));
+        let mut most_aligned = (0.0f32, 0usize);
+        let held = self.axes.iter().zip(&self.values).take(self.count);
+        for (k, (&axis, &values)) in held.enumerate() {
+            let along = n.dot(axis);
+            rest -= axis * along;
+            rhs -= values * along;
+            if along.abs() > most_aligned.0.abs() {
+                most_aligned = (along, k);
+            }
+        }
+        let len = rest.length();
+        // Below ~12° from the held span a contact adds no direction of its own: what it asks
+        // beyond the held velocities (more outward motion) goes on the held axis it is closest
+        // to, so the stricter of two nearly parallel contacts wins.
+        if len > 0.2 {
+            if let (Some(axis), Some(values)) = (
+                self.axes.get_mut(self.count),
+                self.values.get_mut(self.count),
+            ) {
+                (*axis, *values) = (rest / len, rhs / len);
+                self.count += 1;
+                return;
+            }
+        }
+        let (along, k) = most_aligned;
+        if let (Some(values), true) = (self.values.get_mut(k), along != 0.0) {
+            let raise = |r: f32| r.max(0.0) / along;
+            let target = raise(rhs.x);
+            let surface = if target != 0.0 { rhs.z / along } else { 0.0 };
+            *values += Vec3A::new(target, raise(rhs.y), surface);
+        }
+    }
+
+    /// The held axes with the velocity each prescribes and its surface's velocity. A vertex
+    /// held by one contact may be drawn toward its surface; one held by several is not: their
+    /// normals can be nearly parallel (an edge's and a vertex's on a sphere), and two different
+    /// draws along them would ask a large velocity across them (measured: energy put in).
+    fn axes(&self) -> impl Iterator<Item = (Vec3A, f32, f32)> + '_ {
+        let single = self.contacts <= 1;
+        self.axes
+            .iter()
+            .zip(&self.values)
+            .take(self.count)
+            .map(move |(&a, &v)| (a, if single { v.x } else { v.y }, v.z))
+    }
+
+    /// The PCG filter: the directions left free, `I − Σ a aᵀ`.
+    fn free(&self) -> Mat3A {
+        self.axes()
+            .fold(Mat3A::IDENTITY, |f, (a, _, _)| f - outer(a, a))
+    }
+
+    /// The velocity with the held components prescribed and the free ones of `free_v`.
+    fn velocity(&self, free_v: Vec3A) -> Vec3A {
+        self.axes()
+            .fold(self.free() * free_v, |v, (a, t, _)| v + a * t)
+    }
+
+    /// The velocity of what holds the vertex along the held axes (the free part 0, or a
+    /// sticking contact's surface velocity `stuck`).
+    fn surface_velocity(&self, stuck: Vec3A) -> Vec3A {
+        self.axes()
+            .fold(self.free() * stuck, |v, (a, _, s)| v + a * s)
+    }
+}
+
+/// What holds one vertex in a substep: its contacts' normals, and its own deepest contact (the
+/// collider, and the surface velocity at the vertex), the one friction acts through.
+#[derive(Clone, Copy, Default)]
+struct Hold {
+    held: Held,
+    primary: Option<(usize, Vec3A)>,
+}
+
+/// The substep's view of the contacts: the colliders, the cloth's state at the substep's start
+/// and its topology, and the rules that turn a proximity into a contact.
+struct Scene<'s> {
+    colliders: &'s [collide::Collider],
+    x: &'s [Vec3A],
+    v: &'s [Vec3A],
+    ring_start: &'s [u32],
+    ring: &'s [u32],
+    vt_start: &'s [u32],
+    vt: &'s [u32],
+    triangles: &'s [[u32; 3]],
+    sub: Substep,
+    gravity: Vec3A,
+    /// The contact slop beyond the thickness is a tenth of it plus this: how far gravity
+    /// moves a point in a substep.
+    slop_fall: f32,
+    max_depenetration_speed: f32,
+}
+
+/// A point's contact with one collider in a substep.
+struct Touch {
+    normal: Vec3A,
+    /// Signed distance beyond the thickness at the substep's start (negative: inside).
+    depth: f32,
+    /// Normal velocity the point must end the substep with.
+    target: f32,
+    /// The surface's velocity there.
+    vs: Vec3A,
+}
+
+impl Scene<'_> {
+    /// The collider at the start (`before`) and end of the substep.
+    fn placed(&self, col: &collide::Collider) -> (collide::Shape, collide::Shape) {
+        let sub = self.sub;
+        (
+            col.previous.lerp(&col.shape, sub.t0),
+            col.previous.lerp(&col.shape, sub.t),
+        )
+    }
+
+    /// Whether a point at `p` (proximity `prox` at the substep's start) moving at `vp` touches
+    /// `col` in this substep. Its distance at the start, advanced by its velocity relative to
+    /// the collider's surface, must end within the thickness plus a small slop (a linear sweep
+    /// of both, so a fast collider neither tunnels nor pushes what it does not reach within the
+    /// substep). `at_vertex`: the point is a vertex, not a point of an edge or a face.
+    fn touch(
+        &self,
+        col: &collide::Collider,
+        p: Vec3A,
+        vp: Vec3A,
+        prox: collide::Proximity,
+        at_vertex: bool,
+    ) -> Option<Touch> {
+        let h = self.sub.h;
+        let (before, shape) = self.placed(col);
+        let vs = shape.surface_velocity(&before, p, h);
+        let nrm = prox.normal;
+        let predicted = prox.distance + h * (vp - vs).dot(nrm);
+        // Contact slop: a point predicted to end within this of its offset surface is held too.
+        // A cloth resting on a collider sits exactly on it after each substep; with a strict
+        // test its vertices flicker in and out of the contact set, and the ones let go fall in
+        // for a substep and are projected back against the membrane's tension, which puts
+        // energy in.
+        if predicted >= col.thickness * 1.1 + self.slop_fall {
+            return None;
+        }
+        // End the substep on the offset surface, moving with the collider. A vertex is pushed
+        // out of a penetration no faster than the depenetration speed (the projection after
+        // the step corrects the rest by position only), and one held within the slop above the
+        // surface is drawn to it no faster than gravity's pull toward the surface alone would
+        // in a substep (held, not glued). A contact between vertices holds every corner, so it
+        // does not draw: it approaches no faster than it already does (an inelastic stop).
+        // Measured: drawing the corners of the edges resting on a sphere put energy in at most
+        // steps.
+        let approach = (vp - vs).dot(nrm).min(0.0);
+        let (push_max, pull) = if at_vertex {
+            let pull = (-self.gravity.dot(nrm)).max(0.0) * h;
+            (self.max_depenetration_speed, pull)
+        } else {
+            (0.0, -approach)
+        };
+        let push = ((col.thickness - prox.distance) / h)
+            .min(push_max)
+            .max(-pull);
+        Some(Touch {
+            normal: nrm,
+            depth: prox.distance - col.thickness,
+            target: vs.dot(nrm) + push,
+            vs,
+        })
+    }
+
+    /// Whether vertex `i` touches `col` itself.
+    fn vertex_touch(&self, col: &collide::Collider, i: usize) -> Option<Touch> {
+        let (&xi, &vi) = (self.x.get(i)?, self.v.get(i)?);
+        let prox = self.placed(col).0.proximity(xi);
+        self.touch(col, xi, vi, prox, true)
+    }
+
+    /// Everything vertex `i` touches: each collider at the vertex; and, for a sphere or a
+    /// capsule the vertex does not touch, the interior of each edge and face around it long
+    /// enough to cut into it (a thin collider between vertices). Such a contact holds the
+    /// corners that do not touch the collider themselves along its normal, to the contact
+    /// point's target velocity: conservative (it also stops the edge from tilting along the
+    /// normal), but what the per-vertex filter can hold, and the contact point then moves as
+    /// required. A corner that touches keeps its own contact only (adding the edge's normals,
+    /// nearly parallel to its own, put energy into cloth swept by a fast sphere). Edge and face
+    /// contacts are frictionless.
+    fn hold(&self, i: usize) -> Hold {
+        let mut hold = Hold::default();
+        let mut deepest = f32::INFINITY;
+        // No face around the vertex has a side longer than twice its longest edge (the side
+        // opposite the vertex is at most the sum of the other two): a bound, once per vertex,
+        // that spares the edge and face tests where the cloth is finer than the colliders.
+        let reach = self.x.get(i).map_or(0.0, |&xi| {
+            let ring = ring_of(self.ring_start, self.ring, i);
+            let longest = ring
+                .iter()
+                .filter_map(|&j| self.x.get(j as usize))
+                .map(|&xj| (xj - xi).length_squared())
+                .fold(0.0, f32::max);
+            2.0 * libm::sqrtf(longest) * 2.0 * FRAC_1_SQRT_3
+        });
+        for (k, col) in self.colliders.iter().enumerate() {
+            if let Some(t) = self.vertex_touch(col, i) {
+                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
+                if t.depth < deepest {
+                    deepest = t.depth;
+                    hold.primary = Some((k, t.vs));
+                }
+                continue;
+            }
+            let (before, _) = self.placed(col);
+            let Some(cutting) = before
+                .shortest_cutting_edge(col.thickness)
+                .filter(|&cutting| cutting <= reach)
+            else {
+                continue;
+            };
+            let clearance = self.clearance(col, i);
+            for t in self.edge_touches(col, &before, i, clearance, cutting) {
+                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
+            }
+            for t in self.face_touches(col, &before, i, clearance, cutting) {
+                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
+            }
+        }
+        hold
+    }
+
+    /// How far `col` stays from vertex `i` beyond what a contact reaches in this substep: an
+    /// edge or face around the vertex can touch `col` only where it extends (or moves relative
+    /// to the vertex) further than this. A cheap bound before the exact edge and face tests.
+    fn clearance(&self, col: &collide::Collider, i: usize) -> f32 {
+        let (Some(&xi), Some(&vi)) = (self.x.get(i), self.v.get(i)) else {
+            return f32::INFINITY;
+        };
+        let (before, shape) = self.placed(col);
+        let vs = shape.surface_velocity(&before, xi, self.sub.h);
+        let travel = self.sub.h * (vi - vs).length();
+        before.proximity(xi).distance - travel - col.thickness * 1.1 - self.slop_fall
+    }
+
+    fn edge_touches<'a>(
+        &'a self,
+        col: &'a collide::Collider,
+        before: &'a collide::Shape,
+        i: usize,
+        clearance: f32,
+        cutting: f32,
+    ) -> impl Iterator<Item = Touch> + 'a {
+        let ring = ring_of(self.ring_start, self.ring, i);
+        ring.iter().filter_map(move |&j| {
+            let j = j as usize;
+            let (&xi, &vi, &xj, &vj) = (
+                self.x.get(i)?,
+                self.v.get(i)?,
+                self.x.get(j)?,
+                self.v.get(j)?,
+            );
+            // a distance changes no faster than the point moves: the edge's points lie within
+            // its length of the vertex and move relative to it no faster than the other end
+            let len = (xj - xi).length();
+            if len < cutting || clearance >= len + self.sub.h * (vj - vi).length() {
+                return None;
+            }
+            let (s, prox) = before.segment_proximity(xi, xj)?;
+            // a corner is nearest: the vertex contact's (vertex `i` does not touch `col`)
+            if s <= 0.0 || s >= 1.0 {
+                return None;
+            }
+            self.touch(col, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
+        })
+    }
+
+    fn face_touches<'a>(
+        &'a self,
+        col: &'a collide::Collider,
+        before: &'a collide::Shape,
+        i: usize,
+        clearance: f32,
+        cutting: f32,
+    ) -> impl Iterator<Item = Touch> + 'a {
+        let faces = ring_of(self.vt_start, self.vt, i);
+        faces.iter().filter_map(move |&t| {
+            let corners = *self.triangles.get(t as usize)?;
+            let [a, b, c] = corners.map(|k| k as usize);
+            let p = [*self.x.get(a)?, *self.x.get(b)?, *self.x.get(c)?];
+            let q = [*self.v.get(a)?, *self.v.get(b)?, *self.v.get(c)?];
+            let (xi, vi) = (*self.x.get(i)?, *self.v.get(i)?);
+            let size = p.iter().map(|&pk| (pk - xi).length()).fold(0.0, f32::max);
+            let speed = q.iter().map(|&vk| (vk - vi).length()).fold(0.0, f32::max);
+            // as for an edge; a face's points lie within its circumradius of a corner, at
+            // most its longest side over √3 (half of it for an obtuse one)
+            let longest = (p[1] - p[0])
+                .length()
+                .max((p[2] - p[1]).length())
+                .max((p[0] - p[2]).length());
+            if longest * 2.0 * FRAC_1_SQRT_3 < cutting || clearance >= size + self.sub.h * speed {
+                return None;
+            }
+            let (w, prox) = before.triangle_proximity(p)?;
+            if w.iter().any(|&wk| wk <= 0.0) {
+                return None; // an edge or a corner is nearest: theirs
+            }
+            if corners
+                .iter()
+                .any(|&k| k as usize != i && self.vertex_touch(col, k as usize).is_some())
+            {
+                return None;
+            }
+            let at = |y: [Vec3A; 3]| y[0] * w[0] + y[1] * w[1] + y[2] * w[2];
+            self.touch(col, at(p), at(q), prox, false)
+        })
+    }
+}
+
+/// `1/√3`: a face's circumradius is at most its longest side times this.
+const FRAC_1_SQRT_3: f32 = 0.577_350_26;
+
+/// The CSR row `i` of `(start, items)`, empty when out of range.
+fn ring_of<'r>(start: &[u32], items: &'r [u32], i: usize) -> &'r [u32] {
+    match (start.get(i), start.get(i + 1)) {
+        (Some(&s), Some(&e)) => items.get(s as usize..e as usize).unwrap_or(&[]),
+        _ => &[],
+    }
+}
+
+fn scene<'s>(
+    a: &'s Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<Scene<'s>, StepError> {
+    let n = c.n;
+    let gravity = if st.effects & effects::GRAVITY != 0 {
+        Vec3A::from(st.gravity)
+    } else {
+        Vec3A::ZERO
+    };
+    Ok(Scene {
+        colliders: live(a.colliders, c.colliders)?,
+        x: live(a.x, n)?,
+        v: live(a.v, n)?,
+        ring_start: live(a.ring_start, n + 1)?,
+        ring: a.ring,
+        vt_start: live(a.vt_start, n + 1)?,
+        vt: a.vt,
+        triangles: live(a.triangles, c.nt)?,
+        sub,
+        gravity,
+        slop_fall: gravity.length() * sub.h * sub.h,
+        max_depenetration_speed: st.max_depenetration_speed,
+    })
+}
+
+/// The contacts' part of [`constrain`]: each vertex's filter, prescribed `Δv` and contact
+/// state from what holds it. Returns whether any vertex is held.
+fn hold_all(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+    filter: &mut [Mat3A],
+    dv: &mut [Vec3A],
+    contact: &mut [u32],
+) -> Result<bool, StepError> {
+    let n = c.n;
+    let scene = scene(a, c, st, sub)?;
+    let mut constrained = false;
+    let vertices = live_mut(contact, n)?
+        .iter_mut()
+        .zip(live_mut(filter, n)?.iter_mut())
+        .zip(live_mut(dv, n)?.iter_mut().zip(scene.v));
+    for (i, ((contact, filter_i), (dv_i, &vi))) in vertices.enumerate() {
+        let hold = scene.hold(i);
+        let before_substep = *contact;
+        // on the same collider it keeps sticking (or sliding): `resolve` decides again from
+        // the solve's impulse; a new contact starts sliding
+        *contact = match hold.primary {
+            Some((k, _)) if collider_of(before_substep) == k => before_substep,
+            Some((k, _)) => k as u32,
+            None => mesh::NONE,
+        };
+        if hold.held.count == 0 {
+            continue;
+        }
+        match hold.primary {
+            Some((_, vs)) if *contact & STICK != 0 => {
+                // Static friction held it: it moves with the surface (all three directions
+                // prescribed); the solve's impulse says whether the friction cone still holds
+                // it (`resolve`).
+                *filter_i = Mat3A::ZERO;
+                *dv_i = hold.held.velocity(vs) - vi;
+            }
+            _ => {
+                let free = hold.held.free();
+                *filter_i = free;
+                *dv_i = hold.held.velocity(vi + free * *dv_i) - vi;
+            }
+        }
+        constrained = true;
+    }
+    Ok(constrained)
+}
+
 /// Sets the PCG filter and the prescribed velocity changes; returns whether any vertex is
 /// constrained (without constraints the solve runs its filter-free path).
 pub(crate) fn constrain(
@@ -52,82 +477,20 @@ pub(crate) fn constrain(
         return Ok(false);
     }
     let mut constrained = false;
-    let (x, v) = (live(a.x, n)?, live(a.v, n)?);
-    let (filter, dv) = (live_mut(a.filter, n)?, live_mut(a.dv, n)?);
-    filter.fill(Mat3A::IDENTITY);
-    // Contact slop: a vertex predicted to end within this of its offset surface is held too.
-    // A cloth resting on a collider sits exactly on it after each substep; with a strict test
-    // its vertices flicker in and out of the contact set, and the ones let go fall in for a
-    // substep and are projected back against the membrane's tension, which puts energy in.
-    let gravity = if st.effects & effects::GRAVITY != 0 {
-        Vec3A::from(st.gravity)
-    } else {
-        Vec3A::ZERO
-    };
-    let fall = gravity.length() * h * h;
-    let slop = |thickness: f32| 0.1 * thickness + fall;
+    live_mut(a.filter, n)?.fill(Mat3A::IDENTITY);
     if collide {
-        let colliders = live(a.colliders, c.colliders)?;
-        let vertices = live_mut(a.contact, n)?
-            .iter_mut()
-            .zip(filter.iter_mut())
-            .zip(dv.iter_mut())
-            .zip(x.iter().zip(v));
-        for (((contact, filter_i), dv_i), (&xi, &vi)) in vertices {
-            let before_substep = *contact;
-            *contact = mesh::NONE;
-            let mut deepest = f32::INFINITY;
-            for (k, col) in colliders.iter().enumerate() {
-                let shape = col.previous.lerp(&col.shape, sub.t);
-                let before = col.previous.lerp(&col.shape, sub.t0);
-                // Where the collider is at the start of the substep, and the vertex's motion
-                // relative to its surface over the substep: the predicted distance at the end
-                // (a linear sweep of both, so a fast collider neither tunnels nor pushes what
-                // it does not reach within the substep).
-                let prox = before.proximity(xi);
-                let vs = shape.surface_velocity(&before, xi, h);
-                let vn_rel = (vi - vs).dot(prox.normal);
-                let predicted = prox.distance + h * vn_rel;
-                if predicted < col.thickness + slop(col.thickness)
-                    && prox.distance - col.thickness < deepest
-                {
-                    deepest = prox.distance - col.thickness;
-                    let nrm = prox.normal;
-                    // end the substep on the offset surface, moving with the collider, but
-                    // push out of a penetration no faster than the depenetration speed (the
-                    // projection after the step corrects the rest by position only); and a
-                    // vertex held within the slop above the surface is drawn to it no faster
-                    // than gravity's pull toward the surface alone would in a substep (held,
-                    // not glued)
-                    let pull = (-gravity.dot(nrm)).max(0.0) * h;
-                    let push = ((col.thickness - prox.distance) / h)
-                        .min(st.max_depenetration_speed)
-                        .max(-pull);
-                    let target_vn = vs.dot(nrm) + push;
-                    if before_substep == k as u32 | STICK {
-                        // Static friction held it: it moves with the surface (all three
-                        // directions prescribed); the solve's impulse says whether the
-                        // friction cone still holds it (`resolve`).
-                        *filter_i = Mat3A::ZERO;
-                        *dv_i = vs - nrm * vs.dot(nrm) + nrm * target_vn - vi;
-                    } else {
-                        let filter = Mat3A::IDENTITY - outer(nrm, nrm);
-                        *filter_i = filter;
-                        *dv_i = filter * *dv_i + nrm * (target_vn - vi.dot(nrm));
-                    }
-                    // on the same collider it keeps sticking (or sliding): `resolve` decides
-                    // again from the solve's impulse; a new contact starts sliding
-                    *contact = if collider_of(before_substep) == k {
-                        before_substep
-                    } else {
-                        k as u32
-                    };
-                    constrained = true;
-                }
-            }
-        }
+        // the filter, Δv and contact states are lent out of the arrays while the scene reads
+        // the rest
+        let filter = core::mem::take(&mut a.filter);
+        let dv = core::mem::take(&mut a.dv);
+        let contact = core::mem::take(&mut a.contact);
+        let held = hold_all(a, c, st, sub, filter, dv, contact);
+        (a.filter, a.dv, a.contact) = (filter, dv, contact);
+        constrained = held?;
     }
     if pins {
+        let (x, v) = (live(a.x, n)?, live(a.v, n)?);
+        let (filter, dv) = (live_mut(a.filter, n)?, live_mut(a.dv, n)?);
         let pinned = live(a.pin_vertex, c.pins)?
             .iter()
             .zip(live(a.pin_previous, c.pins)?)
@@ -157,8 +520,9 @@ pub(crate) fn constrain(
 
 /// The work (J) moving pins and colliders did on the cloth during the solve: the constraint
 /// impulse `J = (I − S)(A Δv − rhs)` (`a.w_q` holds `A Δv`, see `system::solve`) times the
-/// velocity of what holds the vertex (a pin's target, a collider's surface). Still pins and
-/// colliders do no work: their impulses only redirect motion.
+/// velocity of what holds the vertex (a pin's target, the surfaces of its contacts: along each
+/// contact normal the velocity of that contact's surface). Still pins and colliders do no
+/// work: their impulses only redirect motion.
 pub(crate) fn constraint_work(
     a: &Arrays<'_>,
     c: &Counts,
@@ -191,25 +555,26 @@ pub(crate) fn constraint_work(
             }
         }
     }
-    if collide_on(c, st) {
-        let colliders = live(a.colliders, c.colliders)?;
+    let colliders = live(a.colliders, c.colliders)?;
+    if collide_on(c, st) && colliders.iter().any(|col| col.previous != col.shape) {
+        // the same contacts `constrain` held (the state is unchanged until `integrate`)
+        let scene = scene(a, c, st, sub)?;
         let vertices = live(a.contact, n)?
             .iter()
             .zip(live(a.pin_of, n)?)
-            .zip(live(a.x, n)?.iter().zip(live(a.filter, n)?))
+            .zip(live(a.filter, n)?)
             .zip(w_q.iter().zip(rhs));
-        for (((&contact, &pin), (&xi, &filter)), (&aq, &b)) in vertices {
-            let Some(col) = colliders.get(collider_of(contact)) else {
-                continue;
-            };
-            if col.previous == col.shape || pin != mesh::NONE {
+        for (i, (((&contact, &pin), &filter), (&aq, &b))) in vertices.enumerate() {
+            if pin != mesh::NONE || filter == Mat3A::IDENTITY {
                 continue;
             }
-            let shape = col.previous.lerp(&col.shape, sub.t);
-            let before = col.previous.lerp(&col.shape, sub.t0);
-            let vs = shape.surface_velocity(&before, xi, sub.h);
+            let hold = scene.hold(i);
+            let stuck = match hold.primary {
+                Some((_, vs)) if contact & STICK != 0 => vs,
+                _ => Vec3A::ZERO,
+            };
             let held = Mat3A::IDENTITY - filter;
-            work += f64::from((held * (aq - b)).dot(vs));
+            work += f64::from((held * (aq - b)).dot(hold.held.surface_velocity(stuck)));
         }
     }
     Ok(work)
@@ -373,4 +738,62 @@ fn projection_is_driven(
         }
     }
     Ok(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One normal leaves its plane free, two independent ones the line along their cross
+    /// product, three nothing; the velocity meets every target at once; a nearly parallel
+    /// contact adds no direction, and the stricter target wins.
+    #[test]
+    fn held_normals_span_the_filter() {
+        let (s, c) = 15f32.to_radians().sin_cos();
+        let (left, right) = (Vec3A::new(s, 0.0, c), Vec3A::new(-s, 0.0, c));
+        let mut held = Held::default();
+        held.add(left, 0.1, 0.0);
+        let free = held.free();
+        assert!((free * left).length() < 1e-5 && (free * Vec3A::Y - Vec3A::Y).length() < 1e-5);
+        held.add(right, 0.2, 0.1);
+        let free = held.free();
+        assert!((free - outer(Vec3A::Y, Vec3A::Y))
+            .to_cols_array()
+            .iter()
+            .all(|e| e.abs() < 1e-5));
+        let v = held.velocity(Vec3A::new(5.0, 7.0, -9.0));
+        assert!((v.dot(left) - 0.1).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
+        assert!((v.y - 7.0).abs() < 1e-5, "the free direction is kept: {v}");
+        let w = held.surface_velocity(Vec3A::ZERO);
+        assert!(w.dot(left).abs() < 1e-5 && (w.dot(right) - 0.1).abs() < 1e-5);
+        held.add(Vec3A::Y, 0.5, 0.0);
+        assert_eq!(held.count, 3);
+        assert!(held.free().to_cols_array().iter().all(|e| e.abs() < 1e-5));
+        let v = held.velocity(Vec3A::ZERO);
+        assert!((v.y - 0.5).abs() < 1e-5 && (v.dot(right) - 0.2).abs() < 1e-5);
+        // a fourth contact cannot add a direction
+        held.add(Vec3A::X, 1.0, 0.0);
+        assert_eq!(held.count, 3);
+
+        let mut twins = Held::default();
+        twins.add(Vec3A::Z, 0.1, 0.0);
+        let tilted = Vec3A::new(0.05, 0.0, 1.0).normalize();
+        twins.add(tilted, 0.3, 0.0);
+        assert_eq!(twins.count, 1);
+        assert!((twins.velocity(Vec3A::ZERO).dot(tilted) - 0.3).abs() < 1e-5);
+        // a looser one changes nothing
+        twins.add(tilted, 0.0, 0.0);
+        assert!((twins.velocity(Vec3A::ZERO).dot(tilted) - 0.3).abs() < 1e-5);
+
+        // one contact may draw the vertex toward its surface; with two, neither draws
+        let mut drawn = Held::default();
+        drawn.add(Vec3A::Z, -0.2, 0.0);
+        assert!((drawn.velocity(Vec3A::ZERO).z + 0.2).abs() < 1e-6);
+        drawn.add(Vec3A::X, -0.1, 0.0);
+        assert!(drawn
+            .velocity(Vec3A::ONE)
+            .abs()
+            .cmple(Vec3A::new(1e-6, 1.0, 1e-6))
+            .all());
+    }
 }
