@@ -21,6 +21,20 @@ fn blob_of(name: &str, toml: &str) -> AlignedBytes {
     AlignedBytes::copy_from(&bytes)
 }
 
+/// `sheet` of the blob's first cell at default settings, pinned at its top corners.
+fn hanging_from_blob<'m>(mem: &'m mut [u8], sheet: &Sheet, blob: &Blob) -> World<'m> {
+    let mut w = World::new(
+        mem,
+        sheet.capacity(),
+        &sheet.def(),
+        Materials::Blob(blob),
+        Settings::default(),
+    )
+    .unwrap();
+    pin_top_corners(&mut w, sheet);
+    w
+}
+
 /// What a run saw.
 #[derive(Default, Debug)]
 struct Run {
@@ -123,15 +137,7 @@ density = 0.1
         assert!(weft::membrane::is_spd(&c), "{name}: C^H {c:?}");
         let sheet = hanging_sheet(15, 1.0);
         let mut mem = memory(&sheet.capacity());
-        let mut w = World::new(
-            &mut mem,
-            sheet.capacity(),
-            &sheet.def(),
-            Materials::Blob(&blob),
-            Settings::default(),
-        )
-        .unwrap();
-        pin_top_corners(&mut w, &sheet);
+        let mut w = hanging_from_blob(&mut mem, &sheet, &blob);
         let bound = energy_bound(&w, 1.0);
         let r = run(&mut w, 3000, |_, _| {});
         assert!(r.peak_kinetic < bound, "{name}: {r:?}");
@@ -553,16 +559,8 @@ density = 0.2
         weft::world::Solver::BlockJacobi,
     ] {
         let mut mem = memory(&sheet.capacity());
-        let mut w = World::new(
-            &mut mem,
-            sheet.capacity(),
-            &sheet.def(),
-            Materials::Blob(&blob),
-            Settings::default(),
-        )
-        .unwrap();
+        let mut w = hanging_from_blob(&mut mem, &sheet, &blob);
         w.set_solver(solver);
-        pin_top_corners(&mut w, &sheet);
         let (mut solves, mut converged, mut iterations) = (0u32, 0u32, 0u64);
         for _ in 0..1500 {
             let s = w.step().unwrap();
