@@ -166,14 +166,22 @@ struct Touch {
     vs: Vec3A,
 }
 
+/// A collider placed in the substep: its shape at the start (`before`) and the end
+/// (`after`). Placed once per vertex and collider and handed to every test of that pair.
+struct Placed<'c> {
+    col: &'c collide::Collider,
+    before: collide::Shape,
+    after: collide::Shape,
+}
+
 impl Scene<'_> {
-    /// The collider at the start (`before`) and end of the substep.
-    fn placed(&self, col: &collide::Collider) -> (collide::Shape, collide::Shape) {
+    fn placed<'c>(&self, col: &'c collide::Collider) -> Placed<'c> {
         let sub = self.sub;
-        (
-            col.previous.lerp(&col.shape, sub.t0),
-            col.previous.lerp(&col.shape, sub.t),
-        )
+        Placed {
+            col,
+            before: col.previous.lerp(&col.shape, sub.t0),
+            after: col.previous.lerp(&col.shape, sub.t),
+        }
     }
 
     /// Whether a point at `p` (proximity `prox` at the substep's start) moving at `vp` touches
@@ -183,15 +191,15 @@ impl Scene<'_> {
     /// substep). `at_vertex`: the point is a vertex, not a point of an edge or a face.
     fn touch(
         &self,
-        col: &collide::Collider,
+        placed: &Placed,
         p: Vec3A,
         vp: Vec3A,
         prox: collide::Proximity,
         at_vertex: bool,
     ) -> Option<Touch> {
         let h = self.sub.h;
-        let (before, shape) = self.placed(col);
-        let vs = shape.surface_velocity(&before, p, h);
+        let col = placed.col;
+        let vs = placed.after.surface_velocity(&placed.before, p, h);
         let nrm = prox.normal;
         let predicted = prox.distance + h * (vp - vs).dot(nrm);
         // Contact slop: a point predicted to end within this of its offset surface is held too.
@@ -229,10 +237,10 @@ impl Scene<'_> {
     }
 
     /// Whether vertex `i` touches `col` itself.
-    fn vertex_touch(&self, col: &collide::Collider, i: usize) -> Option<Touch> {
+    fn vertex_touch(&self, placed: &Placed, i: usize) -> Option<Touch> {
         let (&xi, &vi) = (self.x.get(i)?, self.v.get(i)?);
-        let prox = self.placed(col).0.proximity(xi);
-        self.touch(col, xi, vi, prox, true)
+        let prox = placed.before.proximity(xi);
+        self.touch(placed, xi, vi, prox, true)
     }
 
     /// Everything vertex `i` touches: each collider at the vertex; and, for a sphere or a
@@ -260,7 +268,8 @@ impl Scene<'_> {
             2.0 * libm::sqrtf(longest) * 2.0 * FRAC_1_SQRT_3
         });
         for (k, col) in self.colliders.iter().enumerate() {
-            if let Some(t) = self.vertex_touch(col, i) {
+            let placed = self.placed(col);
+            if let Some(t) = self.vertex_touch(&placed, i) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
                 if t.depth < deepest {
                     deepest = t.depth;
@@ -268,18 +277,18 @@ impl Scene<'_> {
                 }
                 continue;
             }
-            let (before, _) = self.placed(col);
-            let Some(cutting) = before
+            let Some(cutting) = placed
+                .before
                 .shortest_cutting_edge(col.thickness)
                 .filter(|&cutting| cutting <= reach)
             else {
                 continue;
             };
-            let clearance = self.clearance(col, i);
-            for t in self.edge_touches(col, &before, i, clearance, cutting) {
+            let clearance = self.clearance(&placed, i);
+            for t in self.edge_touches(&placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
-            for t in self.face_touches(col, &before, i, clearance, cutting) {
+            for t in self.face_touches(&placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
         }
@@ -289,20 +298,20 @@ impl Scene<'_> {
     /// How far `col` stays from vertex `i` beyond what a contact reaches in this substep: an
     /// edge or face around the vertex can touch `col` only where it extends (or moves relative
     /// to the vertex) further than this. A cheap bound before the exact edge and face tests.
-    fn clearance(&self, col: &collide::Collider, i: usize) -> f32 {
+    fn clearance(&self, placed: &Placed, i: usize) -> f32 {
         let (Some(&xi), Some(&vi)) = (self.x.get(i), self.v.get(i)) else {
             return f32::INFINITY;
         };
-        let (before, shape) = self.placed(col);
-        let vs = shape.surface_velocity(&before, xi, self.sub.h);
+        let vs = placed
+            .after
+            .surface_velocity(&placed.before, xi, self.sub.h);
         let travel = self.sub.h * (vi - vs).length();
-        before.proximity(xi).distance - travel - col.thickness * 1.1 - self.slop_fall
+        placed.before.proximity(xi).distance - travel - placed.col.thickness * 1.1 - self.slop_fall
     }
 
     fn edge_touches<'a>(
         &'a self,
-        col: &'a collide::Collider,
-        before: &'a collide::Shape,
+        placed: &'a Placed<'a>,
         i: usize,
         clearance: f32,
         cutting: f32,
@@ -322,19 +331,18 @@ impl Scene<'_> {
             if len < cutting || clearance >= len + self.sub.h * (vj - vi).length() {
                 return None;
             }
-            let (s, prox) = before.segment_proximity(xi, xj)?;
+            let (s, prox) = placed.before.segment_proximity(xi, xj)?;
             // a corner is nearest: the vertex contact's (vertex `i` does not touch `col`)
             if s <= 0.0 || s >= 1.0 {
                 return None;
             }
-            self.touch(col, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
+            self.touch(placed, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
         })
     }
 
     fn face_touches<'a>(
         &'a self,
-        col: &'a collide::Collider,
-        before: &'a collide::Shape,
+        placed: &'a Placed<'a>,
         i: usize,
         clearance: f32,
         cutting: f32,
@@ -357,18 +365,18 @@ impl Scene<'_> {
             if longest * 2.0 * FRAC_1_SQRT_3 < cutting || clearance >= size + self.sub.h * speed {
                 return None;
             }
-            let (w, prox) = before.triangle_proximity(p)?;
+            let (w, prox) = placed.before.triangle_proximity(p)?;
             if w.iter().any(|&wk| wk <= 0.0) {
                 return None; // an edge or a corner is nearest: theirs
             }
             if corners
                 .iter()
-                .any(|&k| k as usize != i && self.vertex_touch(col, k as usize).is_some())
+                .any(|&k| k as usize != i && self.vertex_touch(placed, k as usize).is_some())
             {
                 return None;
             }
             let at = |y: [Vec3A; 3]| y[0] * w[0] + y[1] * w[1] + y[2] * w[2];
-            self.touch(col, at(p), at(q), prox, false)
+            self.touch(placed, at(p), at(q), prox, false)
         })
     }
 }
