@@ -499,15 +499,9 @@ pub(crate) fn constrain(
     if pins {
         let (x, v) = (live(a.x, n)?, live(a.v, n)?);
         let (filter, dv) = (live_mut(a.filter, n)?, live_mut(a.dv, n)?);
-        let pinned = live(a.pin_vertex, c.pins)?
-            .iter()
-            .zip(live(a.pin_previous, c.pins)?)
-            .zip(
-                live(a.pin_target, c.pins)?
-                    .iter()
-                    .zip(live(a.pin_free, c.pins)?),
-            );
-        for ((&vertex, &previous), (&target, &free)) in pinned {
+        for (vertex, previous, target, free) in
+            pins_of((a.pin_vertex, a.pin_previous, a.pin_target, a.pin_free), c)?
+        {
             let i = vertex as usize;
             let target = previous.lerp(target, sub.t);
             let (Some(dv_i), Some(filter_i), Some(&xi), Some(&vi)) =
@@ -541,15 +535,9 @@ pub(crate) fn constraint_work(
     let (w_q, rhs) = (live(a.w_q, n)?, live(a.rhs, n)?);
     let mut work = 0.0f64;
     if pins_on(c, st) {
-        let pinned = live(a.pin_vertex, c.pins)?
-            .iter()
-            .zip(live(a.pin_previous, c.pins)?)
-            .zip(
-                live(a.pin_target, c.pins)?
-                    .iter()
-                    .zip(live(a.pin_free, c.pins)?),
-            );
-        for ((&vertex, &previous), (&target, &free)) in pinned {
+        for (vertex, previous, target, free) in
+            pins_of((a.pin_vertex, a.pin_previous, a.pin_target, a.pin_free), c)?
+        {
             let i = vertex as usize;
             let moved = previous.lerp(target, sub.t) - previous.lerp(target, sub.t0);
             if moved != Vec3A::ZERO {
@@ -683,15 +671,9 @@ pub(crate) fn resolve(
     }
     if pins {
         let x = live_mut(a.x, n)?;
-        let pinned = live(a.pin_vertex, c.pins)?
-            .iter()
-            .zip(live(a.pin_previous, c.pins)?)
-            .zip(
-                live(a.pin_target, c.pins)?
-                    .iter()
-                    .zip(live(a.pin_free, c.pins)?),
-            );
-        for ((&vertex, &previous), (&target, &free)) in pinned {
+        for (vertex, previous, target, free) in
+            pins_of((a.pin_vertex, a.pin_previous, a.pin_target, a.pin_free), c)?
+        {
             // pinned vertices are < n
             let xi = x
                 .get_mut(vertex as usize)
@@ -709,6 +691,21 @@ pub(crate) fn resolve(
         work += monitor::potential(a, c, st)? - potential_before;
     }
     Ok((contacts, work))
+}
+
+/// Every pin as `(vertex, previous target, target, free directions)`: the target moves from
+/// the previous one to the current one over the step.
+///
+/// Takes the pin arrays, not the world's, so that a caller may hold other arrays mutably.
+fn pins_of<'p>(
+    (vertex, previous, target, free): (&'p [u32], &'p [Vec3A], &'p [Vec3A], &'p [Mat3A]),
+    c: &Counts,
+) -> Result<impl Iterator<Item = (u32, Vec3A, Vec3A, Mat3A)> + 'p, StepError> {
+    let pinned = live(vertex, c.pins)?
+        .iter()
+        .zip(live(previous, c.pins)?)
+        .zip(live(target, c.pins)?.iter().zip(live(free, c.pins)?));
+    Ok(pinned.map(|((&vertex, &previous), (&target, &free))| (vertex, previous, target, free)))
 }
 
 /// Whether a moving collider will push a vertex out in this substep's projection, or a vertex
