@@ -233,7 +233,7 @@
 #define WEFT_STRAIN_GREEN 1
 
 /**
- * `weft_world_set_solver`: CG preconditioned by an aggregation multigrid V-cycle (the default).
+ * `weft_world_set_solver`: CG preconditioned by an aggregation multigrid K-cycle (the default).
  */
 #define WEFT_SOLVER_MULTIGRID 0
 
@@ -1357,7 +1357,7 @@ WeftResult weft_world_set_effects(struct WeftWorld *world,
 
 /**
  * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
- * default: CG iterations that grow slowly with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
+ * default: CG iterations that do not grow with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
  * cheaper cycle whose iteration count grows with the mesh); any other value is
  * `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
  *

@@ -150,7 +150,7 @@ pub const WEFT_STRAIN_COROTATED: u32 = 0;
 /// outside measurement). Use it only to reproduce the paper.
 pub const WEFT_STRAIN_GREEN: u32 = 1;
 
-/// `weft_world_set_solver`: CG preconditioned by an aggregation multigrid V-cycle (the default).
+/// `weft_world_set_solver`: CG preconditioned by an aggregation multigrid K-cycle (the default).
 pub const WEFT_SOLVER_MULTIGRID: u32 = 0;
 /// `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
 pub const WEFT_SOLVER_BLOCK_JACOBI: u32 = 1;

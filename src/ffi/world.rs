@@ -531,7 +531,7 @@ pub unsafe extern "C" fn weft_world_set_effects(
 }
 
 /// Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
-/// default: CG iterations that grow slowly with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
+/// default: CG iterations that do not grow with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
 /// cheaper cycle whose iteration count grows with the mesh); any other value is
 /// `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
 ///

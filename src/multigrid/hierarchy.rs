@@ -31,16 +31,22 @@ impl Graph<'_> {
 /// ~7× and bounded ones on the edges). Its neighbours must be couplings of `pattern` (a
 /// neighbour out of range is ignored; the coarse operators are always built from the full
 /// pattern).
+///
+/// `vectors` is how many `Vec3A` the caller will lend as [`Memory::vectors`] at solve time
+/// (at most [`vectors_len`] are used): coarse levels that would not fit are dropped, so the
+/// hierarchy is shallower (its coarsest level smoothed) rather than unusable.
 pub fn build(
     pattern: &Pattern<'_>,
     graph: Option<Graph<'_>>,
     agg0: &mut [u32],
     index: &mut [u32],
     scratch: &mut [u32],
+    vectors: usize,
 ) -> Result<Info, MgError> {
     pattern.validate().map_err(|_| MgError::InvalidPattern)?;
     let (n0, nnz0) = (pattern.n(), pattern.nnz());
-    let (blocks_cap, vectors_cap) = (blocks_len(n0, nnz0), vectors_len(n0, nnz0));
+    let blocks_cap = blocks_len(n0, nnz0);
+    let vectors_cap = vectors_len(n0, nnz0).min(vectors);
     if index.len() < index_len(n0, nnz0) || agg0.len() < n0 || scratch.len() < scratch_len(n0, nnz0)
     {
         return Err(MgError::MemoryTooSmall);
@@ -102,7 +108,7 @@ pub fn build(
     let mut keep = 1;
     for lv in levels.iter_mut().take(count).skip(1) {
         let need_b = 12 * lv.n + 9 * lv.nnz;
-        let need_v = 3 * lv.n;
+        let need_v = VECTORS_PER_LEVEL * lv.n;
         if blk + need_b > blocks_cap || vec + need_v > vectors_cap {
             break;
         }

@@ -1,6 +1,7 @@
 //! An algebraic multilevel preconditioner for the filtered PCG of [`crate::pcg`]: unsmoothed
-//! aggregation, Galerkin coarse operators recomputed every solve, a symmetric V-cycle with
-//! damped block-Jacobi smoothing and a dense Cholesky solve on the coarsest level.
+//! aggregation, Galerkin coarse operators recomputed every solve, a K-cycle (a V-cycle whose
+//! coarse corrections are each improved by two inner CG steps) with damped block-Jacobi
+//! smoothing and a dense Cholesky solve on the coarsest level.
 //!
 //! Why: block-Jacobi PCG needs a number of iterations that grows with the mesh (the implicit
 //! step's `A = c_m M + c_k K` gets stiffer relative to the mass as the triangles shrink:
@@ -55,7 +56,30 @@
 //! filtered first and the output lies in `range(S)`, so the operator applied is `S B S` with `B`
 //! the cycle on `Â`.
 //!
-//! Measured on the World's step (tolerance 1e-3, `examples/bench_solver.rs`, pinned+contact,
+//! # K-cycle (the default, [`Options::krylov`])
+//!
+//! Unsmoothed aggregation's coarse corrections are piecewise constant: right in direction,
+//! wrong in size, and the error compounds with every level, so a V-cycle's CG count grows
+//! with the mesh (measured 23/33/53/63 at 21/41/81/161 per side on the growth test, 20/27/45
+//! on weft-bench). The K-cycle of Notay & Vassilevski (2008) replaces each coarse level's
+//! correction by up to two steps of CG on that level, preconditioned by the level's own
+//! cycle: the inner CG picks the best size and mix of the two corrections, on every level.
+//! Measured: 17/17/20/17 on the growth test; on weft-bench 18/25/30 at 21/41/81 and 27 at
+//! 161 (54 with the V-cycle), and the step 1.0×/1.0×/0.77×/0.65× the V-cycle's time in the
+//! same run. The second inner step is skipped when the first has already reduced the
+//! level's residual to a quarter. Cost: one more vector per coarse vertex, and coarse levels
+//! are visited up to twice per visit of their parent (levels shrink ~8× each, so this adds
+//! ~30% to a cycle).
+//!
+//! The inner CG makes the cycle a nonlinear map of its input (its step sizes depend on it),
+//! so strictly the outer CG should be *flexible* (Polak–Ribière `β`, one more fine vector
+//! than the World's 4 MB default has room for). Measured with a flexible outer CG on the
+//! World's step (all four scenes of `examples/bench_solver.rs`, 21/41/81 per side, both inner
+//! steps always taken): the same iteration counts within ±1.5 per solve and every solve
+//! converged, so the outer CG stays the plain one. Each application is still deterministic, positive (`rᵀ B(r) > 0`:
+//! two CG steps from zero on SPD levels) and filtered.
+//!
+//! Measured before the K-cycle, on the World's step (tolerance 1e-3, `examples/bench_solver.rs`, pinned+contact,
 //! CG iterations per solve at 21/41/81 per side): Jacobi V-cycle 22/38/67, Jacobi W 18/38/58,
 //! Gauss–Seidel V 15/30/51, Gauss–Seidel W 14/29/46 ([`Options::FEWEST_ITERATIONS`]),
 //! Gauss–Seidel `ν = 2` W 11/21/33, over-correction 1.4 did not help. On weft-bench's scene the
@@ -153,11 +177,15 @@ pub const fn dense_len(_vertices: usize, _couplings: usize) -> usize {
     DENSE_LEN
 }
 
-/// `Vec3A` entries of [`Memory::vectors`]: residual, correction and scratch per coarse vertex
-/// (rewritten by every cycle: may be lent, like `blocks`).
+/// `Vec3A` entries of [`Memory::vectors`]: residual, correction, scratch and the K-cycle's
+/// saved direction per coarse vertex (rewritten by every cycle: may be lent, like `blocks`).
 pub const fn vectors_len(vertices: usize, _couplings: usize) -> usize {
-    coarse_vertices(vertices).saturating_mul(3)
+    coarse_vertices(vertices).saturating_mul(VECTORS_PER_LEVEL)
 }
+
+/// `Vec3A` vectors per coarse vertex: the cycle's residual, correction and scratch, and the
+/// K-cycle's first search direction ([`Options::krylov`]).
+const VECTORS_PER_LEVEL: usize = 4;
 
 /// Bytes of the four pools together (without alignment padding).
 pub const fn bytes(vertices: usize, couplings: usize) -> usize {
@@ -235,8 +263,14 @@ pub struct Options {
     /// The smoother of every level.
     pub smoother: Smoother,
     /// Cycle index `γ`: visits of each coarse level per visit of its parent (`1`: V-cycle,
-    /// `2`: W-cycle; at least 1).
+    /// `2`: W-cycle; at least 1). Ignored with [`Options::krylov`].
     pub cycle: u32,
+    /// K-cycle (Notay & Vassilevski 2008): each coarse level's correction is two steps of
+    /// conjugate gradients on that level, preconditioned by its own cycle, instead of `γ`
+    /// stationary visits. It scales each coarse correction optimally, which unsmoothed
+    /// aggregation's piecewise-constant corrections need; the preconditioner is then a
+    /// (mildly) nonlinear map, see the module docs.
+    pub krylov: bool,
 }
 
 /// A level's smoother; both keep the cycle symmetric (the post-smoother is the adjoint of
@@ -251,8 +285,20 @@ pub enum Smoother {
 }
 
 impl Options {
+    /// The plain V-cycle (damped block Jacobi, `ω = 0.6`, `ν = 1`): a fixed linear SPD
+    /// operator, the default before the K-cycle.
+    pub const V_CYCLE: Options = Options {
+        omega: 0.6,
+        sweeps: 1,
+        coarse_sweeps: 4,
+        correction: 1.0,
+        smoother: Smoother::Jacobi,
+        cycle: 1,
+        krylov: false,
+    };
+
     /// Block Gauss–Seidel, `ν = 1`, W-cycle: the fewest CG iterations per solve measured
-    /// (not the fastest step; see [`Options::default`]).
+    /// among the linear cycles (not the fastest step; see [`Options::default`]).
     pub const FEWEST_ITERATIONS: Options = Options {
         omega: 0.6,
         sweeps: 1,
@@ -260,23 +306,22 @@ impl Options {
         correction: 1.0,
         smoother: Smoother::GaussSeidel,
         cycle: 2,
+        krylov: false,
     };
 }
 
 impl Default for Options {
-    /// Damped block Jacobi (`ω = 0.6`, `ν = 1`), V-cycle: chosen by time per step. On
+    /// [`Options::V_CYCLE`] with the K-cycle's inner CG on every coarse level: its CG count
+    /// does not grow with the mesh (see the module docs). Before the K-cycle, the V-cycle was
+    /// chosen by time per step: on
     /// weft-bench's scene (pins, a sphere contact, wind; tolerance 1e-3) block Gauss–Seidel
     /// with a W-cycle ([`Options::FEWEST_ITERATIONS`]) needs fewer CG iterations (15 / 20 / 29
     /// instead of 20 / 28 / 44 at 21 / 41 / 81 per side) but each costs more, and the step
     /// took 1.1–1.3× as long in the same run.
     fn default() -> Self {
         Self {
-            omega: 0.6,
-            sweeps: 1,
-            coarse_sweeps: 4,
-            correction: 1.0,
-            smoother: Smoother::Jacobi,
-            cycle: 1,
+            krylov: true,
+            ..Self::V_CYCLE
         }
     }
 }
@@ -284,7 +329,8 @@ impl Default for Options {
 /// Offsets of one level: `agg` (index pool) maps its vertices to the next level's; `rs`,
 /// `cols` (index pool) are its pattern and `blk` (blocks pool) its operator: `6 n` floats of
 /// diagonal blocks, `6 n` of their inverses, `9 nnz` of off-diagonal blocks; `vec` (vectors
-/// pool) its residual, correction and scratch, `n` each. Level 0 uses only `agg`.
+/// pool) its residual, correction, scratch and the K-cycle's saved direction, `n` each.
+/// Level 0 uses only `agg`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Level {
     n: usize,

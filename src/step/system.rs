@@ -1,7 +1,7 @@
 //! Stage 3 of a substep: the system `A = (1 + hα) M + (hβ + h²)(K_w + B Q) + h D_air`
 //! (`D_air = Σ drag·area·n nᵀ`, the implicit air drag), its preconditioner, and the filtered
 //! PCG solve of `A Δv = rhs` (Baraff & Witkin §5.3, `pcg.rs`), preconditioned by the multilevel
-//! V-cycle of `multigrid.rs` (the default) or by block Jacobi.
+//! K-cycle of `multigrid/` (the default) or by block Jacobi.
 //!
 //! `K_w` was assembled this substep anyway (`forces.rs`): mass, bending and drag are folded
 //! into the same 3×3 blocks, so a CG iteration is one block-sparse product.
@@ -89,10 +89,11 @@ pub(crate) fn solve(
     let mut result = Err(pcg::PcgError::Breakdown);
     if c.solver == Solver::Multigrid {
         // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
-        // the forces stage).
-        let (vectors, dense) = a
+        // the forces stage): the coarsest factor first, the levels' vectors after it (a mesh
+        // whose levels do not fit steps with block Jacobi).
+        let (dense, vectors) = a
             .force
-            .split_at_mut(multigrid::vectors_len(n, c.nnz).min(n));
+            .split_at_mut(dense_vectors(n, c.nnz).min(a.force.len()));
         let mem = multigrid::Memory {
             agg: live(a.scratch_b, n)?,
             index: a.scratch_a,
@@ -135,6 +136,18 @@ pub(crate) fn solve(
             .map_err(|_| StepError::SolverBreakdown)?;
     }
     Ok(stats)
+}
+
+/// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
+/// multilevel solver has it on loan.
+fn dense_vectors(n: usize, nnz: usize) -> usize {
+    multigrid::dense_len(n, nnz).div_ceil(2)
+}
+
+/// The multilevel vectors a force array of `len` entries lends (after the coarsest factor):
+/// what the hierarchy is built for (`world/build.rs`).
+pub(crate) fn multigrid_vectors(len: usize, n: usize, nnz: usize) -> usize {
+    len.saturating_sub(dense_vectors(n, nnz))
 }
 
 /// `a bᵀ`.

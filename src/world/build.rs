@@ -310,6 +310,7 @@ impl<'a> World<'a> {
         // then holds no hierarchy and `Multigrid::new` refuses it.
         let a = &mut self.a;
         let scratch: &mut [u32] = bytemuck::cast_slice_mut(&mut *a.k_off);
+        let vectors = crate::step::system::multigrid_vectors(a.force.len(), n, self.nnz);
         let built = multigrid::build(
             &Pattern {
                 row_start: live(a.row_start, n + 1)?,
@@ -322,6 +323,7 @@ impl<'a> World<'a> {
             live_mut(a.scratch_b, n)?,
             a.scratch_a,
             scratch,
+            vectors,
         );
         if built.is_err() {
             a.scratch_a.fill(0);
