@@ -158,7 +158,7 @@ fn main() {
         max_iterations: iters,
         floor: 0.0,
     };
-    let mut w = [(); 4].map(|_| vec![Vec3A::ZERO; n]);
+    let mut w = [(); 5].map(|_| vec![Vec3A::ZERO; n]);
     for (name, f) in [
         ("pcg iteration, free", None),
         ("pcg iteration, filtered", Some(&filter[..])),
@@ -167,8 +167,8 @@ fn main() {
         let mut last = None;
         let t = time(&mut || {
             xs.fill(Vec3A::ZERO);
-            let [r, c, q, s] = &mut w;
-            let work = Work { r, c, q, s };
+            let [r, c, q, s, p] = &mut w;
+            let work = Work { r, c, q, s, p };
             let st = pcg::solve(&a, &precond, f, &b, &mut xs, &settings, work).expect("solve");
             last = Some(st);
             u64::from(st.iterations.max(1))

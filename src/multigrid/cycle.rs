@@ -1255,11 +1255,11 @@ mod tests {
         Mat3A::from_cols(n * n.x, n * n.y, n * n.z)
     }
 
-    struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
+    struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
     impl Scratch {
         fn new(n: usize) -> Self {
             let v = vec![Vec3A::splat(f32::NAN); n];
-            Self(v.clone(), v.clone(), v.clone(), v)
+            Self(v.clone(), v.clone(), v.clone(), v.clone(), v)
         }
         fn work(&mut self) -> Work<'_> {
             Work {
@@ -1267,6 +1267,7 @@ mod tests {
                 c: &mut self.1,
                 q: &mut self.2,
                 s: &mut self.3,
+                p: &mut self.4,
             }
         }
     }

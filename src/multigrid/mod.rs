@@ -60,24 +60,22 @@
 //!
 //! Unsmoothed aggregation's coarse corrections are piecewise constant: right in direction,
 //! wrong in size, and the error compounds with every level, so a V-cycle's CG count grows
-//! with the mesh (measured 23/33/53/63 at 21/41/81/161 per side on the growth test, 20/27/45
-//! on weft-bench). The K-cycle of Notay & Vassilevski (2008) replaces each coarse level's
+//! with the mesh (measured 23/33/53/63 at 21/41/81/161 per side on the growth test). The K-cycle of Notay & Vassilevski (2008) replaces each coarse level's
 //! correction by up to two steps of CG on that level, preconditioned by the level's own
 //! cycle: the inner CG picks the best size and mix of the two corrections, on every level.
-//! Measured: 17/17/20/17 on the growth test; on weft-bench 18/25/30 at 21/41/81 and 27 at
-//! 161 (54 with the V-cycle), and the step 1.0×/1.0×/0.77×/0.65× the V-cycle's time in the
-//! same run. The second inner step is skipped when the first has already reduced the
-//! level's residual to a quarter. Cost: one more vector per coarse vertex, and coarse levels
+//! Measured: 17/17/20/17 on the growth test; on weft-bench 18/23/27/33 at 21/41/81/161 (the
+//! V-cycle: 20/28/43/58), and the step 1.00×/0.94×/0.76×/0.69× the V-cycle's time in the same
+//! run (with the flexible outer CG, below). The second inner step is skipped when the first
+//! has already reduced the level's residual to a quarter. Cost: one more vector per coarse vertex, and coarse levels
 //! are visited up to twice per visit of their parent (levels shrink ~8× each, so this adds
 //! ~30% to a cycle).
 //!
 //! The inner CG makes the cycle a nonlinear map of its input (its step sizes depend on it),
-//! so strictly the outer CG should be *flexible* (Polak–Ribière `β`, one more fine vector
-//! than the World's 4 MB default has room for). Measured with a flexible outer CG on the
-//! World's step (all four scenes of `examples/bench_solver.rs`, 21/41/81 per side, both inner
-//! steps always taken): the same iteration counts within ±1.5 per solve and every solve
-//! converged, so the outer CG stays the plain one. Each application is still deterministic, positive (`rᵀ B(r) > 0`:
-//! two CG steps from zero on SPD levels) and filtered.
+//! so the outer CG must be the flexible one ([`crate::pcg`]'s Polak–Ribière `β`). Measured
+//! with the plain `β`: the same iteration counts, but the demo's second drape gained energy
+//! and was redone at every step from step 25 on; with the flexible `β`, twice in 120 steps.
+//! Each application is deterministic, positive (`rᵀ B(r) > 0`: two CG steps from zero on SPD
+//! levels) and filtered.
 //!
 //! Measured before the K-cycle, on the World's step (tolerance 1e-3, `examples/bench_solver.rs`, pinned+contact,
 //! CG iterations per solve at 21/41/81 per side): Jacobi V-cycle 22/38/67, Jacobi W 18/38/58,

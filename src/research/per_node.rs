@@ -149,6 +149,7 @@ pub(crate) fn solve(
         c: &mut a.w_c[..n],
         q: &mut a.w_q[..n],
         s: &mut a.w_s[..n],
+        p: &mut a.w_p[..n],
     };
     let filter = if constrained {
         Some(&a.filter[..n])

@@ -108,6 +108,7 @@ pub(crate) fn solve(
                 c: live_mut(a.w_c, n)?,
                 q: live_mut(a.w_q, n)?,
                 s: live_mut(a.w_s, n)?,
+                p: live_mut(a.w_p, n)?,
             };
             result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
         }
@@ -126,6 +127,7 @@ pub(crate) fn solve(
                 c: live_mut(a.w_c, n)?,
                 q: live_mut(a.w_q, n)?,
                 s: live_mut(a.w_s, n)?,
+                p: live_mut(a.w_p, n)?,
             };
             pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &settings, work)
                 .map_err(|_| StepError::SolverBreakdown)?

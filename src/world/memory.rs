@@ -125,8 +125,6 @@ arrays! { cap;
     v: Vec3A = [cap.v(); Vec3A::ZERO],
     x_start: Vec3A = [cap.v(); Vec3A::ZERO],
     v_start: Vec3A = [cap.v(); Vec3A::ZERO],
-    /// The solver's warm start at the start of the step (a redone step starts from it again).
-    dv_start: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Rest positions `(u, v, 0)`.
     rest: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Lumped masses (kg): the step's, `rest_mass` times the vertex's mass scale.
@@ -179,6 +177,9 @@ arrays! { cap;
     w_c: Vec3A = [cap.v(); Vec3A::ZERO],
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// The flexible CG's `S q` (`pcg::Work::p`). Its memory was the warm start saved at the
+    /// start of each step: a redone or failed step now starts its solve cold.
+    w_p: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],

@@ -971,7 +971,6 @@ impl<'a> World<'a> {
         let n = self.n;
         copy_live(self.a.x_start, self.a.x, n);
         copy_live(self.a.v_start, self.a.v, n);
-        copy_live(self.a.dv_start, self.a.dv, n);
         copy_live(self.a.contact_start, self.a.contact, n);
         let counts = self.counts();
         let start = match self.level {
@@ -981,7 +980,7 @@ impl<'a> World<'a> {
         let stats = match self.attempts(dt, start, pins_on) {
             Ok(stats) => stats,
             Err(e) => {
-                self.restore_start();
+                self.restore_start(false);
                 return Err(e);
             }
         };
@@ -1033,8 +1032,9 @@ impl<'a> World<'a> {
             }
             if redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2 {
                 // Redo from the start with half the substep: the linearization and the
-                // contacts' one-substep prediction are the usual sources of a gain.
-                self.restore_start();
+                // contacts' one-substep prediction are the usual sources of a gain. The
+                // attempt's last Δv warm-starts the redo.
+                self.restore_start(true);
                 substeps *= 2;
                 redone += 1;
                 continue;
@@ -1084,17 +1084,18 @@ impl<'a> World<'a> {
         Ok(stats)
     }
 
-    /// Puts back the state saved at the start of the step.
-    fn restore_start(&mut self) {
+    /// Puts back the state saved at the start of the step. `keep_warm_start`: the next solve
+    /// starts from the current Δv if it is finite (a redo), else from zero (after an error).
+    fn restore_start(&mut self, keep_warm_start: bool) {
         let n = self.n;
         copy_live(self.a.x, self.a.x_start, n);
         copy_live(self.a.v, self.a.v_start, n);
-        copy_live(self.a.dv, self.a.dv_start, n);
         copy_live(self.a.contact, self.a.contact_start, n);
-        // A failed solve's Δv (maybe huge or NaN) must not warm-start the next step, or one
-        // bad input breaks every later solve.
+        // A failed solve's Δv (maybe huge or NaN) must not warm-start the next one, or one
+        // bad input breaks every later solve. (The step's own warm start is not saved: its
+        // memory is the flexible CG's vector.)
         let dv = prefix_mut(self.a.dv, n);
-        if !dv.iter().all(|d| d.is_finite()) {
+        if !(keep_warm_start && dv.iter().all(|d| d.is_finite())) {
             dv.fill(Vec3A::ZERO);
         }
         // Normals (and rotations) are warm starts; re-derive them from the restored state.

@@ -155,7 +155,7 @@ pub enum Solver {
     /// with the mesh resolution.
     BlockJacobi,
     /// The multilevel preconditioner of [`crate::multigrid`]: a K-cycle per iteration, an
-    /// iteration count that does not grow with the mesh (measured 18 / 25 / 30 / 27 per solve
+    /// iteration count that grows little with the mesh (measured 18 / 23 / 27 / 33 per solve
     /// at 21 / 41 / 81 / 161 vertices per side on weft-bench's scene). Per-node warping
     /// ([`Settings::per_node_warping`]) always uses block Jacobi.
     #[default]
