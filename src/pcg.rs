@@ -91,8 +91,10 @@ impl Operator for BlockMatrix<'_> {
 /// A symmetric positive definite preconditioner `P ≈ A⁻¹` on `n` vertices.
 ///
 /// [`solve_with`] applies it to filtered residuals (`r = S r`) and uses only `S P r`, so it
-/// need only be SPD on `range(S)`. It must be a fixed linear map during one solve (CG's theory
-/// and the bit-reproducibility of a solve rest on that).
+/// need only be SPD on `range(S)`. It must be deterministic (the bit-reproducibility of a
+/// solve rests on that). It need not be a fixed linear map: the flexible `β` (module docs)
+/// keeps CG working when it varies mildly from call to call, as the multigrid K-cycle does;
+/// a positive `rᵀ P(r)` is what it must keep.
 pub trait Preconditioner {
     /// `z = P r`, with `r.len() == z.len() == n`; `z` is fully overwritten. `scratch` holds
     /// at least `n` entries whose contents on entry are arbitrary and which may be overwritten
