@@ -1358,3 +1358,40 @@ fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
     assert_eq!(w.origin(), DVec3::new(0.0, -3000.0, 200.0));
     w.step().unwrap();
 }
+
+/// Known defect, kept as the specification of the fix (run with `--ignored`): a cloth resting on
+/// a sphere with the default settings (one substep) gains energy in the solve of nearly every
+/// step, so the energy balance redoes it with two substeps (3× the cost). Measured: 304 / 5 /
+/// 535 of 600 steps redone at 21 / 31 / 41 per side, the last ones all in a row, with the
+/// cloth at rest (fastest vertex ~1e-4 m/s at 21 per side). It depends on where the cloth
+/// happens to come to rest: the V-cycle with the plain CG `β` (commit 836a702) redid 239 / 6 /
+/// 62, the V-cycle with the flexible `β` 11 / 5 / 14. The gain is in the solve, not in the
+/// projection or friction (< 5e-10 J); it is the contacts' "pull" that draws a vertex held in
+/// the slop toward the surface at gravity's rate even where the membrane holds it up. Capping
+/// the pull by the vertex's own forces removes the redos (4 of 600, all in the first impact)
+/// but the drape then keeps sliding (0.006–0.4 m/s after 10 s): not the fix either.
+#[test]
+#[ignore = "known defect: a resting drape is redone at almost every step (README, Limits)"]
+fn a_drape_resting_on_a_sphere_is_not_redone_at_every_step() {
+    for n in [21usize, 31, 41] {
+        let mut sheet = Sheet::grid(n, n, 1.0, 1.0);
+        sheet.transform(|p| [p[0] - 0.5, p[1] - 0.5, 0.45]);
+        let mats = [anisotropic()];
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+        let sphere = Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: 0.3,
+        };
+        w.add_collider(Collider::new(sphere, 0.5, 0.005)).unwrap();
+        let redone: u32 = (0..600).map(|_| w.step().unwrap().redone.min(1)).sum();
+        let fastest = w
+            .velocities()
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0f32, f32::max);
+        println!("{n}×{n}: {redone} of 600 steps redone, fastest vertex {fastest:.1e} m/s");
+        assert!(redone <= 30, "{n}×{n}: {redone} of 600 steps redone");
+        assert!(fastest < 1e-2, "{n}×{n}: still sliding at {fastest} m/s");
+    }
+}
