@@ -223,7 +223,7 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         "Errors are the per-vertex distance to the fine reference averaged over all fine vertices \
          (`err_mean`, the paper's Fig. 7) or its maximum (`err_max`), divided by the sheet size. \
          The fine reference is the runtime `World` on the tiled micro meshes with each pixel's own \
-         material and a tight CG (relative residual 1e-6, 1e-5 and 4 substeps for the dynamic \
+         material and a tight CG (relative residual 1e-6, 1e-5 and 2 substeps for the dynamic \
          drape; at most {REFERENCE_MAX_ITER} iterations per solve). Coarse baseline: homogenized C^H, one cell per coarse quad, CG {:e} / {} \
          iterations, 1 substep, per-element warping. Times are medians over the steps of a run, one \
          core; `loc ms` is the median per-frame localization (or, off, barycentric embedding).\n",
