@@ -146,7 +146,7 @@ arrays! { cap;
     /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`):
     /// `scratch_a` its coarse levels, `scratch_b` the finest level's aggregate map; its
     /// per-solve memory is lent by `precond` and `force` (see `step/system.rs`). So the
-    /// multilevel solver adds no memory; a mesh too small for these budgets (~300 vertices)
+    /// multilevel solver adds no memory; a mesh too small for these budgets (~250 vertices; a larger one gets fewer levels)
     /// steps with block Jacobi.
     scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
@@ -178,7 +178,8 @@ arrays! { cap;
     w_q: Vec3A = [cap.v(); Vec3A::ZERO],
     w_s: Vec3A = [cap.v(); Vec3A::ZERO],
     /// The flexible CG's `S q` (`pcg::Work::p`). Its memory was the warm start saved at the
-    /// start of each step: a redone or failed step now starts its solve cold.
+    /// start of each step: a redone step now warm-starts from the failed attempt's last `Δv`,
+    /// a failed step's next solve from zero.
     w_p: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
