@@ -146,8 +146,8 @@ arrays! { cap;
     /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`):
     /// `scratch_a` its coarse levels, `scratch_b` the finest level's aggregate map; its
     /// per-solve memory is lent by `precond` and `force` (see `step/system.rs`). So the
-    /// multilevel solver adds no memory; a mesh too small for these budgets (~250 vertices; a larger one gets fewer levels)
-    /// steps with block Jacobi.
+    /// multilevel solver adds no memory; a mesh too small for these budgets (~250 vertices)
+    /// steps with block Jacobi, a somewhat larger one gets fewer levels.
     scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
