@@ -255,18 +255,9 @@ impl Scene<'_> {
     fn hold(&self, i: usize) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
-        // No face around the vertex has a side longer than twice its longest edge (the side
-        // opposite the vertex is at most the sum of the other two): a bound, once per vertex,
-        // that spares the edge and face tests where the cloth is finer than the colliders.
-        let reach = self.x.get(i).map_or(0.0, |&xi| {
-            let ring = ring_of(self.ring_start, self.ring, i);
-            let longest = ring
-                .iter()
-                .filter_map(|&j| self.x.get(j as usize))
-                .map(|&xj| (xj - xi).length_squared())
-                .fold(0.0, f32::max);
-            2.0 * libm::sqrtf(longest) * 2.0 * FRAC_1_SQRT_3
-        });
+        // Computed at the first sphere or capsule the vertex does not touch, once per vertex
+        // (planes and shells have no edge or face tests).
+        let mut reach = None;
         for (k, col) in self.colliders.iter().enumerate() {
             let placed = self.placed(col);
             if let Some(t) = self.vertex_touch(&placed, i) {
@@ -280,7 +271,7 @@ impl Scene<'_> {
             let Some(cutting) = placed
                 .before
                 .shortest_cutting_edge(col.thickness)
-                .filter(|&cutting| cutting <= reach)
+                .filter(|&cutting| cutting <= *reach.get_or_insert_with(|| self.reach(i)))
             else {
                 continue;
             };
@@ -293,6 +284,21 @@ impl Scene<'_> {
             }
         }
         hold
+    }
+
+    /// No face around vertex `i` has a side longer than twice its longest edge (the side
+    /// opposite the vertex is at most the sum of the other two): a bound that spares the edge
+    /// and face tests where the cloth is finer than the colliders.
+    fn reach(&self, i: usize) -> f32 {
+        self.x.get(i).map_or(0.0, |&xi| {
+            let ring = ring_of(self.ring_start, self.ring, i);
+            let longest = ring
+                .iter()
+                .filter_map(|&j| self.x.get(j as usize))
+                .map(|&xj| (xj - xi).length_squared())
+                .fold(0.0, f32::max);
+            2.0 * libm::sqrtf(longest) * 2.0 * FRAC_1_SQRT_3
+        })
     }
 
     /// How far `col` stays from vertex `i` beyond what a contact reaches in this substep: an
