@@ -298,13 +298,9 @@ impl Options {
     /// Block Gauss–Seidel, `ν = 1`, W-cycle: the fewest CG iterations per solve measured
     /// among the linear cycles (not the fastest step; see [`Options::default`]).
     pub const FEWEST_ITERATIONS: Options = Options {
-        omega: 0.6,
-        sweeps: 1,
-        coarse_sweeps: 4,
-        correction: 1.0,
         smoother: Smoother::GaussSeidel,
         cycle: 2,
-        krylov: false,
+        ..Self::V_CYCLE
     };
 }
 
