@@ -601,7 +601,7 @@ pub fn invert_block(m: Mat3A) -> Mat3A {
 
 #[cfg(test)]
 #[allow(clippy::indexing_slicing, clippy::unwrap_used)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::sparse::add_block;
     use crate::sparse::tests::{dense, random_pairs, Lcg, OwnedPattern};
@@ -652,13 +652,14 @@ mod tests {
         }
     }
 
-    struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
+    /// Owned [`Work`] vectors for the solver tests (here and in `multigrid`).
+    pub(crate) struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
     impl Scratch {
-        fn new(n: usize) -> Self {
+        pub(crate) fn new(n: usize) -> Self {
             let v = vec![Vec3A::splat(f32::NAN); n]; // contents on entry must not matter
             Self(v.clone(), v.clone(), v.clone(), v.clone(), v)
         }
-        fn work(&mut self) -> Work<'_> {
+        pub(crate) fn work(&mut self) -> Work<'_> {
             Work {
                 r: &mut self.0,
                 c: &mut self.1,

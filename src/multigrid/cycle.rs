@@ -1003,7 +1003,8 @@ impl Preconditioner for Multigrid<'_> {
 #[allow(clippy::indexing_slicing, clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::pcg::{self, solve_with, Settings, Work};
+    use crate::pcg::tests::Scratch;
+    use crate::pcg::{self, solve_with, Settings};
     use crate::sparse::add_block;
     use crate::sparse::tests::{dense, random_pairs, Lcg, OwnedPattern};
 
@@ -1253,23 +1254,6 @@ mod tests {
     fn nn(n: Vec3A) -> Mat3A {
         let n = n.normalize();
         Mat3A::from_cols(n * n.x, n * n.y, n * n.z)
-    }
-
-    struct Scratch(Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>, Vec<Vec3A>);
-    impl Scratch {
-        fn new(n: usize) -> Self {
-            let v = vec![Vec3A::splat(f32::NAN); n];
-            Self(v.clone(), v.clone(), v.clone(), v.clone(), v)
-        }
-        fn work(&mut self) -> Work<'_> {
-            Work {
-                r: &mut self.0,
-                c: &mut self.1,
-                q: &mut self.2,
-                s: &mut self.3,
-                p: &mut self.4,
-            }
-        }
     }
 
     fn settings(tolerance: f32, max_iterations: u32) -> Settings {
