@@ -5,9 +5,11 @@
 //! a pin in a plane, `S = d dᵀ` for a pin on a line) and a prescribed part of `Δv`. A vertex's
 //! contacts (with every collider it touches, and the edge and face contacts of the thin
 //! colliders between its neighbours) share one filter: `I −` the projection onto the span of
-//! their normals ([`Held`]). A pin overrides contacts at its vertex. After it ([`resolve`]): Coulomb friction for the contacts the
-//! solve held, projection out of every collider, pins put exactly on their targets. In
-//! between, [`constraint_work`] measures what moving pins and colliders put into the cloth.
+//! their normals ([`Held`]). A pin overrides contacts at its vertex. A contact only pushes:
+//! [`release`] lets go of a vertex whose contact impulse pulls it, and the solve goes on
+//! without that contact. After it ([`resolve`]): Coulomb friction for the contacts the solve
+//! held, projection out of every collider, pins put exactly on their targets. In between,
+//! [`constraint_work`] measures what moving pins and colliders put into the cloth.
 
 use glam::{Mat3A, Vec3A};
 
@@ -22,12 +24,40 @@ use crate::world::settings::{effects, Settings};
 /// Flag in `Arrays::contact`: static friction holds the vertex to its collider.
 pub(crate) const STICK: u32 = 1 << 31;
 
+/// Flag in `Arrays::contact`: the vertex is held by this one contact alone in the substep (its
+/// filter is this contact's), so [`release`] may let it go.
+const ALONE: u32 = 1 << 30;
+
+/// Flag in `Arrays::contact`: this substep tested the vertex's own contacts without the slop
+/// (it had been let go, [`LET_GO`]).
+const STRICT: u32 = 1 << 29;
+
+/// Flag in `Arrays::contact`: [`release`] let the vertex go (in this substep or before, and
+/// nothing has held it since): the next substep holds it only where it would reach a surface,
+/// so a vertex the membrane holds just above a surface is not caught and let go again at
+/// every substep.
+const LET_GO: u32 = 1 << 28;
+
+/// The flags of a contact state; the rest is the collider index.
+pub(crate) const FLAGS: u32 = STICK | ALONE | STRICT | LET_GO;
+
+/// The collider index of a state whose vertex no collider holds, but which keeps flags.
+const NO_COLLIDER: u32 = !FLAGS;
+
+/// Colliders a world holds at most, whatever its capacity: every index fits below the flags.
+pub(crate) const MAX_COLLIDERS: usize = NO_COLLIDER as usize;
+
+/// Whether contact state `state` has `flag` (`mesh::NONE` has none).
+fn is_strict(state: u32, flag: u32) -> bool {
+    state != mesh::NONE && state & flag != 0
+}
+
 /// The collider index of a contact state (out of range for `mesh::NONE`).
 fn collider_of(contact: u32) -> usize {
     if contact == mesh::NONE {
         usize::MAX
     } else {
-        (contact & !STICK) as usize
+        (contact & !FLAGS) as usize
     }
 }
 
@@ -196,6 +226,7 @@ impl Scene<'_> {
         vp: Vec3A,
         prox: collide::Proximity,
         at_vertex: bool,
+        strict: bool,
     ) -> Option<Touch> {
         let h = self.sub.h;
         let col = placed.col;
@@ -207,7 +238,14 @@ impl Scene<'_> {
         // test its vertices flicker in and out of the contact set, and the ones let go fall in
         // for a substep and are projected back against the membrane's tension, which puts
         // energy in.
-        if predicted >= col.thickness * 1.1 + self.slop_fall {
+        // A vertex that was let go (`strict`) is held only where its own motion reaches the
+        // offset surface: no slop, so the membrane that lifted it is not overruled again.
+        let reach = if strict {
+            col.thickness
+        } else {
+            col.thickness * 1.1 + self.slop_fall
+        };
+        if predicted >= reach {
             return None;
         }
         // End the substep on the offset surface, moving with the collider. A vertex is pushed
@@ -237,10 +275,10 @@ impl Scene<'_> {
     }
 
     /// Whether vertex `i` touches `col` itself.
-    fn vertex_touch(&self, placed: &Placed, i: usize) -> Option<Touch> {
+    fn vertex_touch(&self, placed: &Placed, i: usize, strict: bool) -> Option<Touch> {
         let (&xi, &vi) = (self.x.get(i)?, self.v.get(i)?);
         let prox = placed.before.proximity(xi);
-        self.touch(placed, xi, vi, prox, true)
+        self.touch(placed, xi, vi, prox, true, strict)
     }
 
     /// Everything vertex `i` touches: each collider at the vertex; and, for a sphere or a
@@ -252,7 +290,7 @@ impl Scene<'_> {
     /// required. A corner that touches keeps its own contact only (adding the edge's normals,
     /// nearly parallel to its own, put energy into cloth swept by a fast sphere). Edge and face
     /// contacts are frictionless.
-    fn hold(&self, i: usize) -> Hold {
+    fn hold(&self, i: usize, strict: bool) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
         // Computed at the first sphere or capsule the vertex does not touch, once per vertex
@@ -260,7 +298,7 @@ impl Scene<'_> {
         let mut reach = None;
         for (k, col) in self.colliders.iter().enumerate() {
             let placed = self.placed(col);
-            if let Some(t) = self.vertex_touch(&placed, i) {
+            if let Some(t) = self.vertex_touch(&placed, i, strict) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
                 if t.depth < deepest {
                     deepest = t.depth;
@@ -342,7 +380,7 @@ impl Scene<'_> {
             if s <= 0.0 || s >= 1.0 {
                 return None;
             }
-            self.touch(placed, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
+            self.touch(placed, xi.lerp(xj, s), vi.lerp(vj, s), prox, false, false)
         })
     }
 
@@ -377,12 +415,12 @@ impl Scene<'_> {
             }
             if corners
                 .iter()
-                .any(|&k| k as usize != i && self.vertex_touch(placed, k as usize).is_some())
+                .any(|&k| k as usize != i && self.vertex_touch(placed, k as usize, false).is_some())
             {
                 return None;
             }
             let at = |y: [Vec3A; 3]| y[0] * w[0] + y[1] * w[1] + y[2] * w[2];
-            self.touch(placed, at(p), at(q), prox, false)
+            self.touch(placed, at(p), at(q), prox, false, false)
         })
     }
 }
@@ -445,14 +483,27 @@ fn hold_all(
         .zip(live_mut(filter, n)?.iter_mut())
         .zip(live_mut(dv, n)?.iter_mut().zip(scene.v));
     for (i, ((contact, filter_i), (dv_i, &vi))) in vertices.enumerate() {
-        let hold = scene.hold(i);
-        let before_substep = *contact;
+        let before = *contact;
+        let strict = is_strict(before, LET_GO);
+        let hold = scene.hold(i, strict);
         // on the same collider it keeps sticking (or sliding): `resolve` decides again from
         // the solve's impulse; a new contact starts sliding
-        *contact = match hold.primary {
-            Some((k, _)) if collider_of(before_substep) == k => before_substep,
+        let mut state = match hold.primary {
+            Some((k, _)) if collider_of(before) == k => before & (STICK | !FLAGS),
             Some((k, _)) => k as u32,
-            None => mesh::NONE,
+            None => NO_COLLIDER,
+        };
+        if hold.primary.is_some() && hold.held.contacts == 1 {
+            state |= ALONE;
+        }
+        if strict {
+            // a vertex let go stays let go until something holds it again
+            state |= STRICT | if hold.held.count == 0 { LET_GO } else { 0 };
+        }
+        *contact = if state == NO_COLLIDER {
+            mesh::NONE
+        } else {
+            state
         };
         if hold.held.count == 0 {
             continue;
@@ -526,6 +577,55 @@ pub(crate) fn constrain(
     Ok(constrained)
 }
 
+/// A contact only pushes (Baraff & Witkin §5.3 release a constraint whose force pulls): after a
+/// solve, a vertex held by its own contact alone whose impulse along the contact normal,
+/// `n · (A Δv − rhs)`, draws it toward the surface is let go, its filter freed, and the solve
+/// goes on from its `Δv` (`a.w_q` holds `A Δv`). Returns how many were let go.
+///
+/// Why: a held vertex moves along the normal exactly as its contact prescribes: the surface's
+/// velocity, or toward the surface within the slop. Where the membrane would lift it faster,
+/// the impulse that holds it pulls: cloth lying on the floor stayed glued to it when a corner
+/// was lifted (measured: an edge stretched 25× in 1.5 s), and the rim of a drape was drawn
+/// toward a sphere against its tension, which put energy in at nearly every step. A released
+/// vertex's own solution moves it away from the surface faster than the contact's target
+/// (for one contact, `n·Δv_free = target − λ nᵀA⁻¹n` with `λ < 0`), so it does not enter.
+/// Vertices held by several contacts (grooves, the thin colliders' edge and face contacts)
+/// and pinned ones stay held.
+pub(crate) fn release(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<u32, StepError> {
+    let n = c.n;
+    if !collide_on(c, st) {
+        return Ok(0);
+    }
+    let pins = pins_on(c, st);
+    let colliders = live(a.colliders, c.colliders)?;
+    let mut released = 0;
+    let vertices = live_mut(a.contact, n)?
+        .iter_mut()
+        .zip(live_mut(a.filter, n)?.iter_mut())
+        .zip(live(a.pin_of, n)?.iter().zip(live(a.x, n)?))
+        .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
+    for (((contact, filter), (&pin, &xi)), (&aq, &b)) in vertices {
+        if *contact == mesh::NONE || *contact & ALONE == 0 || (pins && pin != mesh::NONE) {
+            continue;
+        }
+        let Some(col) = colliders.get(collider_of(*contact)) else {
+            continue;
+        };
+        let normal = col.previous.lerp(&col.shape, sub.t0).proximity(xi).normal;
+        if (aq - b).dot(normal) < 0.0 {
+            *filter = Mat3A::IDENTITY;
+            *contact = NO_COLLIDER | LET_GO | (*contact & STRICT);
+            released += 1;
+        }
+    }
+    Ok(released)
+}
+
 /// The work (J) moving pins and colliders did on the cloth during the solve: the constraint
 /// impulse `J = (I − S)(A Δv − rhs)` (`a.w_q` holds `A Δv`, see `system::solve`) times the
 /// velocity of what holds the vertex (a pin's target, the surfaces of its contacts: along each
@@ -570,7 +670,7 @@ pub(crate) fn constraint_work(
             if pin != mesh::NONE || filter == Mat3A::IDENTITY {
                 continue;
             }
-            let hold = scene.hold(i);
+            let hold = scene.hold(i, is_strict(contact, STRICT));
             let stuck = match hold.primary {
                 Some((_, vs)) if contact & STICK != 0 => vs,
                 _ => Vec3A::ZERO,
@@ -626,8 +726,15 @@ pub(crate) fn resolve(
             let mut vs_held = Vec3A::ZERO;
             // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
             // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a sliding
-            // one loses at most `μ J_n / m` of its tangential velocity relative to the surface
-            // and sticks once that stops it.
+            // one loses at most `μ J_n / m` of its tangential velocity relative to the surface.
+            // It sticks again once that stops it *and* the static cone holds its own load (the
+            // tangential part of `rhs`, the impulse of its forces over the substep). Without
+            // the second test a vertex whose neighbours pull it along cycled: held, it needs more
+            // than `μ J_n` (the hold also stops the neighbours it drags), so it slides; sliding
+            // alone, its velocity is small enough for `μ J_n / m` to stop it, so it sticks. Each
+            // cycle moved it by `h v_t`: a drape let go at its rim crept at ~1 mm/s forever
+            // (41×41 on a sphere, 50 such vertices per step). On a uniform incline both tests
+            // are Coulomb's `tan θ ≤ μ`.
             if let Some(col) = colliders.get(collider_of(*contact)) {
                 let shape = col.previous.lerp(&col.shape, sub.t);
                 let before = col.previous.lerp(&col.shape, sub.t0);
@@ -636,21 +743,22 @@ pub(crate) fn resolve(
                 let impulse = aq - b;
                 let normal = impulse.dot(nrm).max(0.0);
                 let limit = col.friction * normal;
+                let tangential = |j: Vec3A| j - nrm * j.dot(nrm);
                 if *contact & STICK != 0 {
-                    let tangential = impulse - nrm * impulse.dot(nrm);
-                    if tangential.length() > limit {
+                    if tangential(impulse).length() > limit {
                         *contact &= !STICK;
                     }
                 } else {
-                    let rel = *vi - vs;
-                    let vt = rel - nrm * rel.dot(nrm);
+                    let vt = tangential(*vi - vs);
                     let vt_len = vt.length();
                     let stop = limit / mass.max(f32::MIN_POSITIVE);
-                    if vt_len <= stop {
+                    if vt_len <= stop && tangential(b).length() <= limit {
                         *vi -= vt;
                         *contact |= STICK;
-                    } else {
+                    } else if vt_len > stop {
                         *vi -= vt * (stop / vt_len);
+                    } else {
+                        *vi -= vt;
                     }
                 }
                 vs_held = vs;
@@ -667,6 +775,10 @@ pub(crate) fn resolve(
                     vs_held = vs;
                 }
                 touched |= hit;
+            }
+            if touched && is_strict(*contact, LET_GO) {
+                // it reached a surface after all: the next substep holds it as any other
+                *contact = mesh::NONE;
             }
             if touched && vs_held != Vec3A::ZERO {
                 // a moving surface does work m Δv · v_s through what it changed

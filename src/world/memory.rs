@@ -185,8 +185,9 @@ arrays! { cap;
     precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts: the collider a vertex is held against in this substep (or `mesh::NONE`),
-    /// with `step::contacts::STICK` set when static friction holds it; and the same at the
-    /// start of the step (a redone step starts from it again).
+    /// with the flags of `step::contacts::FLAGS` (static friction holds it; it was let go
+    /// because its contact pulled); and the same at the start of the step (a redone step
+    /// starts from it again).
     contact: u32 = [cap.v(); mesh::NONE],
     contact_start: u32 = [cap.v(); mesh::NONE],
     /// Pin index of each vertex, or `mesh::NONE`.

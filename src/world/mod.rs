@@ -746,7 +746,8 @@ impl<'a> World<'a> {
             previous: origin::shape_to_local(self.origin, collider.previous),
             ..collider
         };
-        if self.colliders >= self.capacity.c() {
+        // (a contact state keeps its flags above the collider index, `step::contacts::FLAGS`)
+        if self.colliders >= self.capacity.c().min(step::contacts::MAX_COLLIDERS) {
             return Err(EditError::ColliderCapacity);
         }
         // (after a wrap of the counter, skip the ids still in use)
@@ -839,11 +840,11 @@ impl<'a> World<'a> {
             if *c == mesh::NONE {
                 continue;
             }
-            let (collider, stick) = (*c & !step::contacts::STICK, *c & step::contacts::STICK);
+            let (collider, flags) = (*c & !step::contacts::FLAGS, *c & step::contacts::FLAGS);
             if collider == k {
                 *c = mesh::NONE;
             } else if collider == last {
-                *c = k | stick;
+                *c = k | flags;
             }
         }
         self.colliders -= 1;
