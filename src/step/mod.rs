@@ -5,7 +5,7 @@
 //! 1. [`forces`]: frames, membrane forces and Jacobian, bending, gravity, wind, damping → rhs;
 //! 2. [`contacts`]: pins and contacts into the PCG filter and the prescribed `Δv`;
 //! 3. [`system`]: fold mass, bending and drag into the blocks, precondition, solve; a contact
-//!    whose impulse pulled is let go from the next substep on ([`contacts::release`]);
+//!    that pulls is let go ([`contacts::release`]) and the solve goes on;
 //! 4. integrate `v += Δv`, `x += h v`;
 //! 5. [`contacts`]: friction, projection, pins exactly on target.
 
@@ -65,6 +65,9 @@ pub(crate) struct Report {
     pub input: f64,
 }
 
+/// Solves after contacts were let go, at most (`contacts::release`).
+const RELEASE_ROUNDS: u32 = 2;
+
 /// One linearized implicit Euler substep.
 pub(crate) fn substep(
     a: &mut Arrays<'_>,
@@ -74,11 +77,22 @@ pub(crate) fn substep(
 ) -> Result<Report, StepError> {
     forces::accumulate(a, c, st, sub.h)?;
     let constrained = contacts::constrain(a, c, st, sub)?;
-    let solve = system::solve(a, c, st, sub.h, constrained)?;
+    system::fold(a, c, st, sub.h)?;
+    let mut solve = system::solve(a, c, st, sub.h, constrained)?;
+    // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
+    // leave another one pulling, hence the rounds).
+    for _ in 0..RELEASE_ROUNDS {
+        if !constrained || contacts::release(a, c, st, sub)? == 0 {
+            break;
+        }
+        let more = system::solve(a, c, st, sub.h, constrained)?;
+        solve = pcg::Stats {
+            iterations: solve.iterations + more.iterations,
+            ..more
+        };
+    }
     let mut input = if constrained {
-        let work = contacts::constraint_work(a, c, st, sub)?;
-        contacts::release(a, c, st, sub)?;
-        work
+        contacts::constraint_work(a, c, st, sub)?
     } else {
         0.0
     };

@@ -21,34 +21,26 @@ use crate::world::settings::{effects, Settings, Solver};
 /// cloth at rest (right-hand side = round-off) costs no iterations.
 const FLOOR_VELOCITY: f64 = 1e-6;
 
-/// Solves for `a.dv`. With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so
-/// that `A Δv − rhs` is the impulse the pins and contacts supplied (their work enters the
-/// step's energy balance, and a contact that pulled is let go, `contacts::release`).
-pub(crate) fn solve(
-    a: &mut Arrays<'_>,
-    c: &Counts,
-    st: &Settings,
-    h: f32,
-    constrained: bool,
-) -> Result<pcg::Stats, StepError> {
-    let n = c.n;
-    let eff = st.effects;
-    let (alpha, beta) = if eff & effects::DAMPING != 0 {
+/// `c_m` and `c_k` of the system: `A = c_m M + c_k (K_w + B Q) + …` (Rayleigh damping in both).
+fn coefficients(st: &Settings, h: f32) -> (f32, f32) {
+    let (alpha, beta) = if st.effects & effects::DAMPING != 0 {
         (st.damping_mass, st.damping_stiffness)
     } else {
         (0.0, 0.0)
     };
-    let c_m = 1.0 + h * alpha;
-    let c_k = h * beta + h * h;
-    let settings = pcg::Settings {
-        tolerance: st.tolerance,
-        max_iterations: st.max_iterations,
-        floor: (c.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
-    };
+    (1.0 + h * alpha, h * beta + h * h)
+}
+
+/// Folds mass, bending and drag into the blocks the forces stage assembled (`K_w`), in place:
+/// `a.k_diag` and `a.k_off` become `A`. Once per substep, before the first [`solve`].
+pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Result<(), StepError> {
+    let n = c.n;
+    let eff = st.effects;
+    #[cfg(feature = "research")]
     if eff & effects::WARPING != 0 && st.per_node_warping {
-        #[cfg(feature = "research")]
-        return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
+        return Ok(()); // the research solver assembles its own system
     }
+    let (c_m, c_k) = coefficients(st, h);
     let bending_on = eff & effects::BENDING != 0;
     let drag = if eff & effects::WIND != 0 {
         st.drag
@@ -73,6 +65,31 @@ pub(crate) fn solve(
         if drag > 0.0 {
             *d += outer(*nrm, *nrm) * (h * drag * area);
         }
+    }
+    Ok(())
+}
+
+/// Solves `A Δv = rhs` for `a.dv` (the system [`fold`] made), starting from the current `a.dv`.
+/// With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so that `A Δv − rhs` is
+/// the impulse the pins and contacts supplied (their work enters the step's energy balance,
+/// and a contact that pulls is let go, `contacts::release`).
+pub(crate) fn solve(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    #[cfg_attr(not(feature = "research"), allow(unused_variables))] h: f32,
+    constrained: bool,
+) -> Result<pcg::Stats, StepError> {
+    let n = c.n;
+    let settings = pcg::Settings {
+        tolerance: st.tolerance,
+        max_iterations: st.max_iterations,
+        floor: (c.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
+    };
+    #[cfg(feature = "research")]
+    if st.effects & effects::WARPING != 0 && st.per_node_warping {
+        let (c_m, c_k) = coefficients(st, h);
+        return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
     }
     let op = sparse::BlockMatrix {
         diag: live(a.k_diag, n)?,
