@@ -39,7 +39,7 @@ const STRICT: u32 = 1 << 29;
 const LET_GO: u32 = 1 << 28;
 
 /// The flags of a contact state; the rest is the collider index.
-pub(crate) const FLAGS: u32 = STICK | ALONE | STRICT | LET_GO;
+const FLAGS: u32 = STICK | ALONE | STRICT | LET_GO;
 
 /// The collider index of a state whose vertex no collider holds, but which keeps flags.
 const NO_COLLIDER: u32 = !FLAGS;
@@ -50,6 +50,23 @@ pub(crate) const MAX_COLLIDERS: usize = NO_COLLIDER as usize;
 /// Whether contact state `state` has `flag` (`mesh::NONE` has none).
 fn has_flag(state: u32, flag: u32) -> bool {
     state != mesh::NONE && state & flag != 0
+}
+
+/// Contact state `state` after collider `removed` was removed and the last one, `last`, moved
+/// into its slot: a contact with the removed collider is gone, one with the last follows it
+/// (flags kept).
+pub(crate) fn collider_removed(state: u32, removed: u32, last: u32) -> u32 {
+    if state == mesh::NONE {
+        return state;
+    }
+    let (collider, flags) = (state & !FLAGS, state & FLAGS);
+    if collider == removed {
+        mesh::NONE
+    } else if collider == last {
+        removed | flags
+    } else {
+        state
+    }
 }
 
 /// The collider index of a contact state (out of range for `mesh::NONE`).
@@ -617,7 +634,7 @@ pub(crate) fn release(
         .zip(live(a.pin_of, n)?.iter().zip(live(a.x, n)?))
         .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
     for (((contact, filter), (&pin, &xi)), (&aq, &b)) in vertices {
-        if *contact == mesh::NONE || *contact & ALONE == 0 || (pins && pin != mesh::NONE) {
+        if !has_flag(*contact, ALONE) || (pins && pin != mesh::NONE) {
             continue;
         }
         let Some(col) = colliders.get(collider_of(*contact)) else {
@@ -625,7 +642,7 @@ pub(crate) fn release(
         };
         let normal = col.previous.lerp(&col.shape, sub.t0).proximity(xi).normal;
         if (aq - b).dot(normal) < 0.0 {
-            *contact = NO_COLLIDER | LET_GO | (*contact & STRICT);
+            *contact = NO_COLLIDER | LET_GO;
             *filter = Mat3A::IDENTITY;
             released += 1;
         }
@@ -759,13 +776,13 @@ pub(crate) fn resolve(
                     let vt = tangential(*vi - vs);
                     let vt_len = vt.length();
                     let stop = limit / mass.max(f32::MIN_POSITIVE);
-                    if vt_len <= stop && tangential(b).length() <= limit {
+                    if vt_len <= stop {
                         *vi -= vt;
-                        *contact |= STICK;
-                    } else if vt_len > stop {
-                        *vi -= vt * (stop / vt_len);
+                        if tangential(b).length() <= limit {
+                            *contact |= STICK;
+                        }
                     } else {
-                        *vi -= vt;
+                        *vi -= vt * (stop / vt_len);
                     }
                 }
                 vs_held = vs;

@@ -746,7 +746,7 @@ impl<'a> World<'a> {
             previous: origin::shape_to_local(self.origin, collider.previous),
             ..collider
         };
-        // (a contact state keeps its flags above the collider index, `step::contacts::FLAGS`)
+        // (a contact state keeps its flags above the collider index)
         if self.colliders >= self.capacity.c().min(step::contacts::MAX_COLLIDERS) {
             return Err(EditError::ColliderCapacity);
         }
@@ -837,15 +837,7 @@ impl<'a> World<'a> {
             .iter_mut()
             .chain(prefix_mut(a.contact_start, self.n));
         for c in contacts {
-            if *c == mesh::NONE {
-                continue;
-            }
-            let (collider, flags) = (*c & !step::contacts::FLAGS, *c & step::contacts::FLAGS);
-            if collider == k {
-                *c = mesh::NONE;
-            } else if collider == last {
-                *c = k | flags;
-            }
+            *c = step::contacts::collider_removed(*c, k, last);
         }
         self.colliders -= 1;
         self.wake();
