@@ -71,6 +71,7 @@
 use glam::Vec3A;
 
 use crate::membrane::DEGENERATE_RATIO;
+use crate::sparse::Pattern;
 
 /// The weight vector `k` and the area `A0 + A1` of the hinge `uv` (see the module docs), or
 /// `None` if a triangle is degenerate (relative area below [`DEGENERATE_RATIO`]), the two
@@ -190,9 +191,11 @@ pub fn dihedral_angle(x: [Vec3A; 4]) -> f32 {
 /// differences: `f_i = -Σ_j Q_ij (x_j - x_i)`. Every row of `Q` sums to zero (it annihilates
 /// translations), so this is the same force, but it never forms `Q x` from absolute
 /// coordinates, whose f32 cancellation is large next to sliver hinges (weights ~ aspect ratio).
-/// `off` holds the strictly-upper scalar entries of `B Q` on `p`.
+/// `off` holds the strictly-upper scalar entries of `B Q` on `p`: call it once per pattern
+/// (the world's block pattern and its hinge-only one); the difference form splits over any
+/// partition of the couplings.
 pub fn add_forces(
-    p: &crate::sparse::Pattern<'_>,
+    p: &Pattern<'_>,
     off: &[f32],
     x: &[Vec3A],
     force: &mut [Vec3A],
@@ -231,29 +234,33 @@ pub fn add_forces(
 /// The bending energy `½ xᵀ B Q x = -½ Σ_{i<j} Q_ij |x_i - x_j|²` (J), in the same
 /// difference form as [`add_forces`], clamped at 0 (it is a sum of terms of both signs whose
 /// exact total is ≥ 0; see [`energy_with_noise`]).
-pub fn energy(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> f64 {
-    energy_with_noise(p, off, x).0
+pub fn energy(parts: &[(Pattern<'_>, &[f32])], x: &[Vec3A]) -> f64 {
+    energy_with_noise(parts, x).0
 }
 
 /// [`energy`] and a bound on its `f32` round-off (J): each term `Q_ij |x_i − x_j|²` carries
 /// the rounding of `x_i − x_j` (`ε (|x_i| + |x_j|)`) and of the square. A flat cloth at rest
 /// has zero energy but terms of size `Q l²`, so without this bound the noise would read as
-/// energy changing by itself.
-pub fn energy_with_noise(p: &crate::sparse::Pattern<'_>, off: &[f32], x: &[Vec3A]) -> (f64, f64) {
+/// energy changing by itself. `parts` are the strictly-upper entries of `B Q` on their
+/// patterns (the world's block pattern and its hinge-only one); the clamp applies to their
+/// sum.
+pub fn energy_with_noise(parts: &[(Pattern<'_>, &[f32])], x: &[Vec3A]) -> (f64, f64) {
     let mut e = 0.0f64;
     let mut noise = 0.0f64;
     let eps = f64::from(f32::EPSILON);
-    for (i, xi) in x.iter().enumerate().take(p.n()) {
-        let Some(range) = p.row_range(i) else {
-            break;
-        };
-        for k in range {
-            if let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) {
-                if let Some(xj) = x.get(j as usize) {
-                    let d = f64::from((*xj - *xi).length());
-                    let reach = f64::from(xi.abs().max_element() + xj.abs().max_element());
-                    e -= 0.5 * f64::from(q) * d * d;
-                    noise += f64::from(q.abs()) * d * eps * (2.0 * d + 2.0 * reach);
+    for (p, off) in parts {
+        for (i, xi) in x.iter().enumerate().take(p.n()) {
+            let Some(range) = p.row_range(i) else {
+                break;
+            };
+            for k in range {
+                if let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) {
+                    if let Some(xj) = x.get(j as usize) {
+                        let d = f64::from((*xj - *xi).length());
+                        let reach = f64::from(xi.abs().max_element() + xj.abs().max_element());
+                        e -= 0.5 * f64::from(q) * d * d;
+                        noise += f64::from(q.abs()) * d * eps * (2.0 * d + 2.0 * reach);
+                    }
                 }
             }
         }

@@ -440,26 +440,28 @@ fn opposite(tri: [u32; 3], a: u32, b: u32) -> u32 {
     tri.iter().copied().find(|&v| v != a && v != b).unwrap_or(a)
 }
 
-/// The couplings of the block matrix: every edge, plus the two opposite vertices of every hinge
-/// (the bending stencil couples them although they share no edge). Returns how many were written.
+/// The couplings that only bending makes: the two vertices opposite each hinge, where they
+/// share no edge of `edges` (the block pattern of the mesh edges; on a coarse or closed mesh
+/// they may). Their stiffness is a scalar times I3 (`sparse::Scalars`). Returns how many were
+/// written (duplicates included).
 pub fn couplings(
-    edges: &[[u32; 2]],
+    edges: &crate::sparse::Pattern<'_>,
     hinges: &[[u32; 4]],
     out: &mut [[u32; 2]],
 ) -> Result<usize, MeshError> {
-    let needed = edges.len() + hinges.len();
-    if out.len() < needed {
-        return Err(MeshError::EdgeCapacity {
-            capacity: out.len() as u32,
-        });
+    let mut written = 0;
+    for h in hinges {
+        let (a, b) = (h[2].min(h[3]) as usize, h[2].max(h[3]) as usize);
+        if a == b || edges.find(a, b).is_some() {
+            continue;
+        }
+        let slot = out.get_mut(written).ok_or(MeshError::EdgeCapacity {
+            capacity: hinges.len() as u32,
+        })?;
+        *slot = [h[2], h[3]];
+        written += 1;
     }
-    for (o, e) in out.iter_mut().zip(edges) {
-        *o = *e;
-    }
-    for (o, h) in out.iter_mut().skip(edges.len()).zip(hinges) {
-        *o = [h[2], h[3]];
-    }
-    Ok(needed)
+    Ok(written)
 }
 
 /// A regular grid sheet of `nx × ny` vertices spanning `width × height` in (u,v), each square

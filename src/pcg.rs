@@ -642,6 +642,7 @@ pub(crate) mod tests {
                 diag: &self.diag,
                 pattern: self.op.pattern(),
                 off: &self.off,
+                scalars: crate::sparse::Scalars::NONE,
             }
         }
         fn precond(&self) -> Vec<Mat3A> {

@@ -180,6 +180,11 @@ impl<'a> Multigrid<'a> {
         if l0.n != n || a.pattern.n() != n || a.pattern.nnz() != l0.nnz {
             return Err(MgError::NotBuilt);
         }
+        // The scalar couplings must be those the hierarchy was built with (their coarse
+        // couplings are in its patterns); their values are checked as they are read.
+        if !a.scalars.is_empty() && a.scalars.pattern.n() != n {
+            return Err(MgError::NotBuilt);
+        }
         if a.off.len() < l0.nnz
             || a.pattern.cols.len() < l0.nnz
             || blocks.len() < 6 * n
@@ -298,6 +303,22 @@ impl<'a> Multigrid<'a> {
                     (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
                 };
                 accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+            }
+        }
+        // The scalar couplings `c s_ij I3` (`S_i S_j` between filters).
+        let scalars = a.scalars;
+        if !scalars.is_empty() {
+            for (i, &big_i) in agg.iter().enumerate() {
+                let si = s(i);
+                for (k, j) in scalars.pattern.upper(i) {
+                    let v = scalars.scale * *scalars.off.get(k).ok_or(MgError::Internal)?;
+                    let big_j = *agg.get(j).ok_or(MgError::Internal)?;
+                    let f = match (si, s(j)) {
+                        (None, None) => Mat3A::from_diagonal(glam::Vec3::splat(v)),
+                        (a, b) => a.unwrap_or(Mat3A::IDENTITY) * b.unwrap_or(Mat3A::IDENTITY) * v,
+                    };
+                    accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+                }
             }
         }
         Ok(())
@@ -835,6 +856,13 @@ fn fine_forward<F: Filter>(
             let m = a.off.get(k).ok_or(MgError::Internal)?;
             *t.get_mut(j).ok_or(MgError::Internal)? -= mul_t(m, delta);
         }
+        let sc = &a.scalars;
+        if !sc.is_empty() {
+            for (k, j) in sc.pattern.upper(i) {
+                let v = sc.scale * *sc.off.get(k).ok_or(MgError::Internal)?;
+                *t.get_mut(j).ok_or(MgError::Internal)? -= v * delta;
+            }
+        }
     }
     Ok(())
 }
@@ -853,6 +881,13 @@ fn fine_backward<F: Filter>(
         for (k, j) in a.pattern.upper(i) {
             let m = a.off.get(k).ok_or(MgError::Internal)?;
             s -= *m * *t.get(j).ok_or(MgError::Internal)?;
+        }
+        let sc = &a.scalars;
+        if !sc.is_empty() {
+            for (k, j) in sc.pattern.upper(i) {
+                let v = sc.scale * *sc.off.get(k).ok_or(MgError::Internal)?;
+                s -= v * *t.get(j).ok_or(MgError::Internal)?;
+            }
         }
         let delta = f.at(i, sym_mul(d, f.at(i, s)));
         *zi += delta;
@@ -1005,8 +1040,8 @@ mod tests {
     use super::*;
     use crate::pcg::tests::Scratch;
     use crate::pcg::{self, solve_with, Settings};
-    use crate::sparse::add_block;
     use crate::sparse::tests::{dense, random_pairs, Lcg, OwnedPattern};
+    use crate::sparse::{add_block, Scalars};
 
     /// Owned hierarchy memory for `n` vertices and `nnz` couplings.
     struct Mem {
@@ -1043,6 +1078,9 @@ mod tests {
         op: OwnedPattern,
         diag: Vec<Mat3A>,
         off: Vec<Mat3A>,
+        /// Scalar couplings (`Scalars`, scale 1) on their own pattern; empty for none.
+        sop: OwnedPattern,
+        soff: Vec<f32>,
     }
 
     impl System {
@@ -1085,7 +1123,21 @@ mod tests {
                 add_block(&p, &mut diag, &mut off, b, b, k).unwrap();
                 add_block(&p, &mut diag, &mut off, a, b, -k).unwrap();
             }
-            Self { op, diag, off }
+            Self::blocks(op, diag, off)
+        }
+
+        fn blocks(op: OwnedPattern, diag: Vec<Mat3A>, off: Vec<Mat3A>) -> Self {
+            let sop = OwnedPattern {
+                row_start: vec![],
+                cols: vec![],
+            };
+            Self {
+                op,
+                diag,
+                off,
+                sop,
+                soff: vec![],
+            }
         }
 
         fn matrix(&self) -> BlockMatrix<'_> {
@@ -1093,6 +1145,11 @@ mod tests {
                 diag: &self.diag,
                 pattern: self.op.pattern(),
                 off: &self.off,
+                scalars: Scalars {
+                    pattern: self.sop.pattern(),
+                    off: &self.soff,
+                    scale: 1.0,
+                },
             }
         }
     }
@@ -1228,19 +1285,55 @@ mod tests {
             add_block(&p, &mut diag, &mut off, b as usize, b as usize, k).unwrap();
             add_block(&p, &mut diag, &mut off, a as usize, b as usize, -k).unwrap();
         }
-        sys = System { op, diag, off };
+        sys = System::blocks(op, diag, off);
         Cloth {
             sys,
             ring: ring(n, &edges),
         }
     }
 
+    /// The cloth's hinge couplings (those that are no edge) moved from blocks `s I3` to
+    /// scalar couplings, as the world stores them.
+    fn split(c: &Cloth, tris: &[[u32; 3]]) -> System {
+        let n = c.sys.diag.len();
+        let (edges, _) = couplings_of(tris);
+        let eop = OwnedPattern::build(n, &edges);
+        let ep = eop.pattern();
+        let (mut off, mut spairs, mut svals) = (vec![Mat3A::ZERO; eop.cols.len()], vec![], vec![]);
+        for i in 0..n {
+            for (k, j) in c.sys.op.pattern().upper(i) {
+                let m = c.sys.off[k];
+                match ep.find(i, j) {
+                    Some(e) => off[e] = m,
+                    None => {
+                        assert_eq!(m, Mat3A::from_diagonal(glam::Vec3::splat(m.x_axis.x)));
+                        spairs.push([i as u32, j as u32]);
+                        svals.push(m.x_axis.x);
+                    }
+                }
+            }
+        }
+        let sop = OwnedPattern::build(n, &spairs);
+        let mut soff = vec![0.0; sop.cols.len()];
+        for (&[i, j], &v) in spairs.iter().zip(&svals) {
+            soff[sop.pattern().find(i as usize, j as usize).unwrap()] = v;
+        }
+        System {
+            op: eop,
+            diag: c.sys.diag.clone(),
+            off,
+            sop,
+            soff,
+        }
+    }
+
     fn built(sys: &System, graph: Option<Graph<'_>>) -> (Mem, Info) {
-        let (n, nnz) = (sys.diag.len(), sys.op.cols.len());
+        let (n, nnz) = (sys.diag.len(), sys.op.cols.len() + sys.soff.len());
         let mut mem = Mem::new(n, nnz);
         let mut scratch = vec![0u32; scratch_len(n, nnz)];
         let info = build(
             &sys.op.pattern(),
+            &sys.sop.pattern(),
             graph,
             &mut mem.agg,
             &mut mem.index,
@@ -1404,6 +1497,57 @@ mod tests {
             f[i] = Mat3A::IDENTITY - nn(Vec3A::new(0.3, 1.0, 0.2) + 0.3 * rng.vec());
         }
         f
+    }
+
+    /// The world stores bending between vertices that share no edge as scalar couplings
+    /// (`Scalars`), not blocks: the hierarchy, the Galerkin operators and every smoother must
+    /// give the same preconditioner either way (to f32 round-off), filtered or not.
+    #[test]
+    fn scalar_couplings_precondition_as_the_same_blocks_do() {
+        let mut rng = Lcg(11);
+        let (pos, tris) = grid_cloth(&mut rng, 17, true);
+        let c = cloth(&mut rng, &pos, &tris, 500.0);
+        let split = split(&c, &tris);
+        assert!(!split.soff.is_empty() && split.off.len() < c.sys.off.len());
+        let n = pos.len();
+        let filter = constraints(&mut rng, n);
+        let gauss_seidel = Options {
+            smoother: Smoother::GaussSeidel,
+            ..Options::V_CYCLE
+        };
+        for (f, options) in [None, Some(&filter[..])].into_iter().flat_map(|f| {
+            [Options::V_CYCLE, gauss_seidel, Options::default()]
+                .into_iter()
+                .map(move |o| (f, o))
+        }) {
+            let (mut mem_b, info_b) = built(&c.sys, Some(graph(&c)));
+            let (mut mem_s, info_s) = built(&split, Some(graph(&c)));
+            assert_eq!(info_b.vertices, info_s.vertices);
+            assert_eq!(info_b.couplings[1..], info_s.couplings[1..]);
+            assert!(info_b.levels >= 2 && info_b.levels == info_s.levels);
+            let mut mg_b = Multigrid::new(mem_b.mem(), c.sys.matrix(), f, options).unwrap();
+            let mut mg_s = Multigrid::new(mem_s.mem(), split.matrix(), f, options).unwrap();
+            let mut t = vec![Vec3A::ZERO; n];
+            for _ in 0..3 {
+                let r: Vec<Vec3A> = (0..n)
+                    .map(|i| f.map_or(rng.vec(), |f| f[i] * rng.vec()))
+                    .collect();
+                let (mut zb, mut zs) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+                mg_b.apply(&r, &mut zb, &mut t);
+                mg_s.apply(&r, &mut zs, &mut t);
+                assert!(
+                    rel_diff(&zb, &zs) < 1e-4,
+                    "{options:?}: {}",
+                    rel_diff(&zb, &zs)
+                );
+            }
+            // And the products agree.
+            let x: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let (mut yb, mut ys) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+            c.sys.matrix().mul(&x, &mut yb).unwrap();
+            split.matrix().mul(&x, &mut ys).unwrap();
+            assert!(rel_diff(&yb, &ys) < 1e-5);
+        }
     }
 
     #[test]
@@ -1612,6 +1756,7 @@ mod tests {
         assert_eq!(
             build(
                 &sys.op.pattern(),
+                &sys.sop.pattern(),
                 None,
                 &mut agg,
                 &mut index,

@@ -20,9 +20,12 @@ impl Graph<'_> {
     }
 }
 
-/// Builds the hierarchy of the fine `pattern` (`n = pattern.n()` vertices, `nnz =
-/// pattern.nnz()` couplings) into `mem`. Every slice must hold its `*_len(n, nnz)` entries
-/// ([`MgError::MemoryTooSmall`]). Deterministic; costs a few passes over the pattern per level.
+/// Builds the hierarchy of the fine `pattern` (`n = pattern.n()` vertices) and its scalar
+/// couplings' pattern `scalars` (`sparse::Scalars`; empty, or `n` rows) into `mem`, for
+/// `nnz = pattern.nnz() + scalars.nnz()` couplings. Every slice must hold its
+/// `*_len(n, nnz)` entries ([`MgError::MemoryTooSmall`]). Deterministic; costs a few passes
+/// over the pattern per level. The coarse levels couple the aggregates that either pattern
+/// couples.
 ///
 /// `graph`, if given, is what the finest level's aggregation walks instead of the full
 /// pattern: for a cloth, the mesh edges (the bending stencil also couples the two vertices
@@ -37,6 +40,7 @@ impl Graph<'_> {
 /// hierarchy is shallower (its coarsest level smoothed) rather than unusable.
 pub fn build(
     pattern: &Pattern<'_>,
+    scalars: &Pattern<'_>,
     graph: Option<Graph<'_>>,
     agg0: &mut [u32],
     index: &mut [u32],
@@ -45,10 +49,16 @@ pub fn build(
 ) -> Result<Info, MgError> {
     pattern.validate().map_err(|_| MgError::InvalidPattern)?;
     let (n0, nnz0) = (pattern.n(), pattern.nnz());
-    let blocks_cap = blocks_len(n0, nnz0);
-    let vectors_cap = vectors_len(n0, nnz0).min(vectors);
-    if index.len() < index_len(n0, nnz0) || agg0.len() < n0 || scratch.len() < scratch_len(n0, nnz0)
-    {
+    if !scalars.row_start.is_empty() {
+        scalars.validate().map_err(|_| MgError::InvalidPattern)?;
+        if scalars.n() != n0 {
+            return Err(MgError::InvalidPattern);
+        }
+    }
+    let all = nnz0 + scalars.nnz();
+    let blocks_cap = blocks_len(n0, all);
+    let vectors_cap = vectors_len(n0, all).min(vectors);
+    if index.len() < index_len(n0, all) || agg0.len() < n0 || scratch.len() < scratch_len(n0, all) {
         return Err(MgError::MemoryTooSmall);
     }
     if u32::try_from(index.len()).is_err() || u32::try_from(blocks_cap).is_err() {
@@ -79,14 +89,23 @@ pub fn build(
                 cols: part(front, cur.cols, cur.nnz)?,
             }
         };
-        // The finest level's aggregate map lives in its own slice, the others in the pool.
-        let (graph, agg_len) = if l == 0 { (graph, 0) } else { (None, cur.n) };
+        // The finest level's aggregate map lives in its own slice, the others in the pool;
+        // only it has scalar couplings (a coarse level's blocks hold them).
+        let none = Pattern {
+            row_start: &[],
+            cols: &[],
+        };
+        let (graph, extra, agg_len) = if l == 0 {
+            (graph, *scalars, 0)
+        } else {
+            (None, none, cur.n)
+        };
         let (agg, out) = if l == 0 {
             (&mut *agg0, back)
         } else {
             back.split_at_mut(cur.n.min(back.len()))
         };
-        let Some((nc, nnzc)) = coarsen(&fine, graph.as_ref(), agg, out, scratch)? else {
+        let Some((nc, nnzc)) = coarsen(&fine, &extra, graph.as_ref(), agg, out, scratch)? else {
             break;
         };
         let lv = levels.get_mut(l).ok_or(MgError::Internal)?;
@@ -139,27 +158,32 @@ pub fn build(
     Ok(info_of(&h))
 }
 
-/// One coarsening step of the level with pattern `p`: writes its aggregate map to
-/// `agg[..n]` and the coarse pattern (row starts, then columns) to `out`. Returns
-/// `(coarse vertices, coarse couplings)`, or `None` if coarsening stalls or `out` is full.
+/// One coarsening step of the level with pattern `p` and the scalar couplings' pattern
+/// `extra` (empty, or `n` rows): writes its aggregate map to `agg[..n]` and the coarse
+/// pattern (row starts, then columns) to `out`. Returns `(coarse vertices, coarse
+/// couplings)`, or `None` if coarsening stalls or `out` is full.
 fn coarsen(
     p: &Pattern<'_>,
+    extra: &Pattern<'_>,
     graph: Option<&Graph<'_>>,
     agg: &mut [u32],
     out: &mut [u32],
     scratch: &mut [u32],
 ) -> Result<Option<(usize, usize)>, MgError> {
-    let (n, nnz) = (p.n(), p.nnz());
+    let (n, nnz) = (p.n(), p.nnz() + extra.nnz());
     if agg.len() < n || scratch.len() < 4 * n + nnz + 2 {
         return Ok(None);
     }
     let agg = agg.get_mut(..n).ok_or(MgError::Internal)?;
+    // Every strictly-upper coupling of either pattern (`extra.upper` is empty for an empty
+    // pattern).
+    let upper = |i: usize| p.upper(i).chain(extra.upper(i)).map(|(_, j)| j);
     // Lower (transposed) pattern, so that every vertex sees all its neighbours.
     let (lo_start, scratch) = scratch.split_at_mut(n + 1);
     let (lo_rows, scratch) = scratch.split_at_mut(nnz);
     lo_start.fill(0);
     for i in 0..n {
-        for (_, j) in p.upper(i) {
+        for j in upper(i) {
             *lo_start.get_mut(j + 1).ok_or(MgError::InvalidPattern)? += 1;
         }
     }
@@ -172,7 +196,7 @@ fn coarsen(
     // and restore by shifting afterwards.
     // After the prefix sum lo_start[j] = start of row j (since entry j + 1 held row j's count).
     for i in 0..n {
-        for (_, j) in p.upper(i) {
+        for j in upper(i) {
             let c = lo_start.get_mut(j).ok_or(MgError::InvalidPattern)?;
             *lo_rows.get_mut(*c as usize).ok_or(MgError::Internal)? = i as u32;
             *c += 1;
@@ -193,15 +217,14 @@ fn coarsen(
         }
     };
 
-    // The aggregation's neighbours: the graph's, or all of the pattern's. Out-of-range
+    // The aggregation's neighbours: the graph's, or all of the patterns'. Out-of-range
     // graph neighbours are dropped.
     let near = |i: usize| {
         let (up, lo, g): (_, &[u32], &[u32]) = match graph {
-            Some(g) => (p.upper(usize::MAX), &[], g.neighbours(i)),
-            None => (p.upper(i), lower(i), &[]),
+            Some(g) => (upper(usize::MAX), &[], g.neighbours(i)),
+            None => (upper(i), lower(i), &[]),
         };
-        up.map(|(_, j)| j)
-            .chain(lo.iter().chain(g).map(|&j| j as usize))
+        up.chain(lo.iter().chain(g).map(|&j| j as usize))
             .filter(move |&j| j < n && j != i)
     };
 
@@ -290,11 +313,7 @@ fn coarsen(
         );
         for &i in members.get(a..b).ok_or(MgError::Internal)? {
             let i = i as usize;
-            for j in p
-                .upper(i)
-                .map(|(_, j)| j)
-                .chain(lower(i).iter().map(|&j| j as usize))
-            {
+            for j in upper(i).chain(lower(i).iter().map(|&j| j as usize)) {
                 let big_j = *agg.get(j).ok_or(MgError::Internal)?;
                 if big_j as usize <= big_i {
                     continue;

@@ -8,7 +8,7 @@ use super::rotation;
 use crate::membrane::AssemblyError;
 use crate::normals;
 use crate::pcg::{self, Operator};
-use crate::sparse::{self, Pattern};
+use crate::sparse::{self, Pattern, Scalars};
 use crate::world::error::StepError;
 use crate::world::memory::{Arrays, Counts};
 
@@ -85,12 +85,21 @@ pub(crate) fn elastic_rhs(
     )
     .map_err(|_| StepError::SolverBreakdown)?;
     a.rhs[..n].copy_from_slice(&a.force[..n]);
+    let hinges = Scalars {
+        pattern: Pattern {
+            row_start: &a.hinge_start[..n + 1],
+            cols: &a.hinge_cols[..c.nnz_h],
+        },
+        off: &a.q_hinge[..c.nnz_h],
+        scale: 1.0,
+    };
     stiffness_apply(
         &pattern,
         &a.k_diag[..n],
         &a.k_off[..c.nnz],
         &a.q_diag[..n],
         &a.q_off[..c.nnz],
+        &hinges,
         Some(&a.rot[..n]),
         bending_on,
         &a.v[..n],
@@ -137,6 +146,14 @@ pub(crate) fn solve(
         k_off: &a.k_off[..c.nnz],
         q_diag: &a.q_diag[..n],
         q_off: &a.q_off[..c.nnz],
+        hinges: Scalars {
+            pattern: Pattern {
+                row_start: &a.hinge_start[..n + 1],
+                cols: &a.hinge_cols[..c.nnz_h],
+            },
+            off: &a.q_hinge[..c.nnz_h],
+            scale: 1.0,
+        },
         rot: Some(&a.rot[..n]),
         mass: &a.mass[..n],
         bending: bending_on,
@@ -182,6 +199,7 @@ fn stiffness_apply(
     k_off: &[Mat3A],
     q_diag: &[f32],
     q_off: &[f32],
+    hinges: &Scalars<'_>,
     rot: Option<&[Quat]>,
     bending: bool,
     x: &[Vec3A],
@@ -201,7 +219,10 @@ fn stiffness_apply(
     } else if sparse::mul(k_diag, p, k_off, x, y).is_err() {
         y.fill(Vec3A::NAN);
     }
-    if bending && sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y).is_err() {
+    if bending
+        && (sparse::mul_scalar_add(q_diag, p, q_off, 1.0, x, y).is_err()
+            || hinges.mul_add(x, y).is_err())
+    {
         y.fill(Vec3A::NAN);
     }
 }
@@ -213,6 +234,7 @@ struct SystemOperator<'s, 't> {
     k_off: &'s [Mat3A],
     q_diag: &'s [f32],
     q_off: &'s [f32],
+    hinges: Scalars<'s>,
     rot: Option<&'s [Quat]>,
     mass: &'s [f32],
     bending: bool,
@@ -232,6 +254,7 @@ impl Operator for SystemOperator<'_, '_> {
             self.k_off,
             self.q_diag,
             self.q_off,
+            &self.hinges,
             self.rot,
             self.bending,
             x,

@@ -13,7 +13,7 @@
 
 use glam::Vec3A;
 
-use super::{live, live_mut, pattern};
+use super::{hinge_pattern, hinge_scalars, live, live_mut, pattern};
 use crate::bending;
 use crate::membrane;
 use crate::normals;
@@ -76,11 +76,15 @@ pub(crate) fn accumulate(
         elastic_rhs(a, c, bending_on, c_kv)?;
     }
     let pattern = pattern(a.row_start, a.cols, c)?;
+    let hinges = hinge_pattern(a.hinge_start, a.hinge_cols, c)?;
     let (x, v) = (live(a.x, n)?, live(a.v, n)?);
     let rhs = live_mut(a.rhs, n)?;
     if bending_on {
-        // Bending force −B Q x (Q annihilates the flat rest shape, so no rest term).
-        bending::add_forces(&pattern, live(a.q_off, c.nnz)?, x, rhs)
+        // Bending force −B Q x (Q annihilates the flat rest shape, so no rest term), on the
+        // edges and on the hinge-only pairs.
+        let (q_off, q_hinge) = (live(a.q_off, c.nnz)?, live(a.q_hinge, c.nnz_h)?);
+        bending::add_forces(&pattern, q_off, x, rhs)
+            .and_then(|()| bending::add_forces(&hinges, q_hinge, x, rhs))
             .map_err(|_| StepError::SolverBreakdown)?;
     }
     let gravity = Vec3A::from(st.gravity);
@@ -131,9 +135,20 @@ fn elastic_rhs(
 ) -> Result<(), StepError> {
     let n = c.n;
     let pattern = pattern(a.row_start, a.cols, c)?;
+    let k = sparse::BlockMatrix {
+        diag: live(a.k_diag, n)?,
+        pattern,
+        off: live(a.k_off, c.nnz)?,
+        scalars: hinge_scalars(
+            a.hinge_start,
+            a.hinge_cols,
+            a.q_hinge,
+            c,
+            if bending_on { 1.0 } else { 0.0 },
+        )?,
+    };
     let (v, kv) = (live(a.v, n)?, live_mut(a.w_r, n)?);
-    sparse::mul(live(a.k_diag, n)?, &pattern, live(a.k_off, c.nnz)?, v, kv)
-        .map_err(|_| StepError::SolverBreakdown)?;
+    k.mul(v, kv).map_err(|_| StepError::SolverBreakdown)?;
     if bending_on {
         let (q_diag, q_off) = (live(a.q_diag, n)?, live(a.q_off, c.nnz)?);
         sparse::mul_scalar_add(q_diag, &pattern, q_off, 1.0, v, kv)

@@ -17,7 +17,7 @@ pub(crate) mod system;
 use glam::Vec3A;
 
 use crate::pcg;
-use crate::sparse::Pattern;
+use crate::sparse::{Pattern, Scalars};
 use crate::world::error::StepError;
 use crate::world::memory::{Arrays, Counts};
 use crate::world::settings::Settings;
@@ -43,6 +43,34 @@ pub(crate) fn pattern<'p>(
     Ok(Pattern {
         row_start: live(row_start, c.n + 1)?,
         cols: live(cols, c.nnz)?,
+    })
+}
+
+/// The world's scalar (hinge-only) pattern, checked like [`live`].
+pub(crate) fn hinge_pattern<'p>(
+    hinge_start: &'p [u32],
+    hinge_cols: &'p [u32],
+    c: &Counts,
+) -> Result<Pattern<'p>, StepError> {
+    Ok(Pattern {
+        row_start: live(hinge_start, c.n + 1)?,
+        cols: live(hinge_cols, c.nnz_h)?,
+    })
+}
+
+/// The bending couplings of vertices that share no edge, `scale · q_hinge` on the scalar
+/// pattern.
+pub(crate) fn hinge_scalars<'p>(
+    hinge_start: &'p [u32],
+    hinge_cols: &'p [u32],
+    q_hinge: &'p [f32],
+    c: &Counts,
+    scale: f32,
+) -> Result<Scalars<'p>, StepError> {
+    Ok(Scalars {
+        pattern: hinge_pattern(hinge_start, hinge_cols, c)?,
+        off: live(q_hinge, c.nnz_h)?,
+        scale,
     })
 }
 

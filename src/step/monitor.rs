@@ -26,7 +26,7 @@ use crate::world::error::StepError;
 use crate::world::memory::{Arrays, Counts};
 use crate::world::settings::{effects, Settings};
 
-use super::{live, live_mut, pattern};
+use super::{hinge_pattern, live, live_mut, pattern};
 
 /// Times a step is redone with twice the substeps before its excess energy is removed.
 pub(crate) const MAX_REDOS: u32 = 2;
@@ -56,7 +56,14 @@ pub(crate) fn shape_energy(
     .unwrap_or(0.0);
     let (bending, bending_noise) = if eff & effects::BENDING != 0 {
         let pattern = pattern(a.row_start, a.cols, c)?;
-        bending::energy_with_noise(&pattern, live(a.q_off, c.nnz)?, x)
+        let hinges = hinge_pattern(a.hinge_start, a.hinge_cols, c)?;
+        bending::energy_with_noise(
+            &[
+                (pattern, live(a.q_off, c.nnz)?),
+                (hinges, live(a.q_hinge, c.nnz_h)?),
+            ],
+            x,
+        )
     } else {
         (0.0, 0.0)
     };

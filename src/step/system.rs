@@ -8,7 +8,7 @@
 
 use glam::{Mat3A, Vec3, Vec3A};
 
-use super::{live, live_mut, pattern};
+use super::{hinge_scalars, live, live_mut, pattern};
 use crate::multigrid;
 use crate::pcg;
 use crate::sparse;
@@ -32,7 +32,8 @@ fn coefficients(st: &Settings, h: f32) -> (f32, f32) {
 }
 
 /// Folds mass, bending and drag into the blocks the forces stage assembled (`K_w`), in place:
-/// `a.k_diag` and `a.k_off` become `A`. Once per substep, before the first [`solve`].
+/// `a.k_diag` and `a.k_off` become `A` (the hinge-only bending couplings, which have no
+/// blocks, are scaled in [`solve`]'s operator). Once per substep, before the first [`solve`].
 pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Result<(), StepError> {
     let n = c.n;
     let eff = st.effects;
@@ -77,7 +78,7 @@ pub(crate) fn solve(
     a: &mut Arrays<'_>,
     c: &Counts,
     st: &Settings,
-    #[cfg_attr(not(feature = "research"), allow(unused_variables))] h: f32,
+    h: f32,
     constrained: bool,
 ) -> Result<pcg::Stats, StepError> {
     let n = c.n;
@@ -91,10 +92,19 @@ pub(crate) fn solve(
         let (c_m, c_k) = coefficients(st, h);
         return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
     }
+    // The hinge-only bending couplings were not folded (they have no blocks): `c_k` scales
+    // them in the product.
+    let bending_on = st.effects & effects::BENDING != 0;
+    let c_k = if bending_on {
+        coefficients(st, h).1
+    } else {
+        0.0
+    };
     let op = sparse::BlockMatrix {
         diag: live(a.k_diag, n)?,
         pattern: pattern(a.row_start, a.cols, c)?,
         off: live(a.k_off, c.nnz)?,
+        scalars: hinge_scalars(a.hinge_start, a.hinge_cols, a.q_hinge, c, c_k)?,
     };
     let filter = if constrained {
         Some(live(a.filter, n)?)

@@ -88,6 +88,7 @@ impl<'a> World<'a> {
             ne: 0,
             nh: 0,
             nnz: 0,
+            nnz_h: 0,
             pins: 0,
             colliders: 0,
             next_collider_id: 0,
@@ -145,15 +146,15 @@ impl<'a> World<'a> {
             *x = origin::to_local(origin, p);
             *rest = Vec3A::new(uv[0], uv[1], 0.0);
         }
-        // Edges, hinges and the block couplings are needed only here, before the stiffness
-        // blocks are first assembled: they borrow the blocks' bytes (2E blocks of 48 bytes hold
-        // E edges, E edge-triangle pairs, E hinges and 2E couplings with room to spare).
+        // Edges, hinges and the hinge couplings are needed only here, before the stiffness
+        // blocks are first assembled: they borrow the blocks' bytes (E blocks of 48 bytes hold
+        // E edges, E edge-triangle pairs, E hinges and E hinge couplings).
         let e_cap = self.capacity.e();
         let scratch: &mut [u8] = bytemuck::cast_slice_mut(&mut *a.k_off);
         let (edges, scratch) = scratch.split_at_mut(8 * e_cap);
         let (edge_tris, scratch) = scratch.split_at_mut(8 * e_cap);
         let (hinges, scratch) = scratch.split_at_mut(16 * e_cap);
-        let (couplings, _) = scratch.split_at_mut(16 * e_cap);
+        let (couplings, _) = scratch.split_at_mut(8 * e_cap);
         let edges: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edges);
         let edge_tris: &mut [[u32; 2]] = bytemuck::cast_slice_mut(edge_tris);
         let hinges: &mut [[u32; 4]] = bytemuck::cast_slice_mut(hinges);
@@ -177,20 +178,27 @@ impl<'a> World<'a> {
         self.ne = counts.edges;
         self.nh = counts.hinges;
         let hinges = live(hinges, self.nh)?;
-        let nc = mesh::couplings(live(edges, self.ne)?, hinges, couplings)?;
-        self.nnz =
-            sparse::build_pattern(n, live(couplings, nc)?, a.row_start, a.cols).map_err(|_| {
-                InitError::EdgeCapacity {
-                    capacity: self.capacity.edges,
-                }
-            })?;
-
-        // Element stiffness K_e = A Bᵀ C^H B (Eq. 10–11 on the coarse mesh with the cell's C^H),
-        // lumped masses, and each element's place in the block pattern.
+        let capacity_error = |_| InitError::EdgeCapacity {
+            capacity: self.capacity.edges,
+        };
+        // Two patterns: the edges carry 3×3 blocks (membrane and bending), the pairs opposite
+        // a hinge that share no edge only bending's scalar (`mesh::couplings`).
+        self.nnz = sparse::build_pattern(n, live(edges, self.ne)?, a.row_start, a.cols)
+            .map_err(capacity_error)?;
         let pattern = Pattern {
             row_start: live(a.row_start, n + 1)?,
             cols: live(a.cols, self.nnz)?,
         };
+        let nc = mesh::couplings(&pattern, hinges, couplings)?;
+        self.nnz_h = sparse::build_pattern(n, live(couplings, nc)?, a.hinge_start, a.hinge_cols)
+            .map_err(capacity_error)?;
+        let hinge_pattern = Pattern {
+            row_start: live(a.hinge_start, n + 1)?,
+            cols: live(a.hinge_cols, self.nnz_h)?,
+        };
+
+        // Element stiffness K_e = A Bᵀ C^H B (Eq. 10–11 on the coarse mesh with the cell's C^H),
+        // lumped masses, and each element's place in the block pattern.
         let (triangles, tri_material) = (live(a.triangles, nt)?, live(a.tri_material, nt)?);
         let rest = live(a.rest, n)?;
         // the (u, v) of vertices `ids` (validated above: every vertex of a triangle is < n)
@@ -265,6 +273,7 @@ impl<'a> World<'a> {
         // Bending: the constant isometric Hessian of every hinge, scaled by the mean bending
         // stiffness of its two triangles.
         let (q_diag, q_off) = (live_mut(a.q_diag, n)?, live_mut(a.q_off, self.nnz)?);
+        let q_hinge = live_mut(a.q_hinge, self.nnz_h)?;
         let bending_of = |t: usize| {
             tri_material
                 .get(t)
@@ -298,8 +307,14 @@ impl<'a> World<'a> {
                     if i > j {
                         continue;
                     }
-                    sparse::add_scalar(&pattern, q_diag, q_off, i as usize, j as usize, qab as f32)
-                        .map_err(|_| InitError::Internal)?;
+                    let (i, j, q) = (i as usize, j as usize, qab as f32);
+                    // On an edge (or the diagonal), else a hinge-only pair.
+                    if i == j || pattern.find(i.min(j), i.max(j)).is_some() {
+                        sparse::add_scalar(&pattern, q_diag, q_off, i, j, q)
+                    } else {
+                        sparse::add_scalar(&hinge_pattern, q_diag, q_hinge, i, j, q)
+                    }
+                    .map_err(|_| InitError::Internal)?;
                 }
             }
         }
@@ -315,6 +330,10 @@ impl<'a> World<'a> {
             &Pattern {
                 row_start: live(a.row_start, n + 1)?,
                 cols: live(a.cols, self.nnz)?,
+            },
+            &Pattern {
+                row_start: live(a.hinge_start, n + 1)?,
+                cols: live(a.hinge_cols, self.nnz_h)?,
             },
             Some(multigrid::Graph {
                 start: live(a.ring_start, n + 1)?,

@@ -54,10 +54,6 @@ impl Capacity {
     pub(crate) const fn e(&self) -> usize {
         self.edges as usize
     }
-    /// Couplings of the block matrix: edges plus hinges (at most one per edge).
-    pub(crate) const fn b(&self) -> usize {
-        (self.edges as usize).saturating_mul(2)
-    }
     pub(crate) const fn c(&self) -> usize {
         self.colliders as usize
     }
@@ -150,22 +146,30 @@ arrays! { cap;
     /// steps with block Jacobi, a somewhat larger one gets fewer levels.
     scratch_a: u32 = [cap.v(); 0],
     scratch_b: u32 = [cap.v(); 0],
-    /// Block pattern (strictly upper CSR) shared by the stiffness and the bending Hessian.
+    /// Block pattern (strictly upper CSR): the mesh edges, which the membrane stiffness and
+    /// the bending Hessian share.
     row_start: u32 = [cap.v().saturating_add(1); 0],
-    cols: u32 = [cap.b(); 0],
+    cols: u32 = [cap.e(); 0],
+    /// Scalar pattern (strictly upper CSR): the pairs of vertices opposite a hinge that share
+    /// no edge, which only bending couples (a scalar times I3, `sparse::Scalars`); at most
+    /// one per hinge, so per edge.
+    hinge_start: u32 = [cap.v().saturating_add(1); 0],
+    hinge_cols: u32 = [cap.e(); 0],
     /// Per triangle: its constant element stiffness and gradients, and where its three
     /// vertex pairs sit in the block pattern.
     elements: Element = [cap.t(); Element::ZERO],
     slots: [u32; 3] = [cap.t(); [0; 3]],
     /// Rotated membrane stiffness `K_w = Σ_e R_e K_e R_eᵀ` (N/m), re-assembled every substep.
     k_diag: Mat3A = [cap.v(); Mat3A::ZERO],
-    k_off: Mat3A = [cap.b(); Mat3A::ZERO],
+    k_off: Mat3A = [cap.e(); Mat3A::ZERO],
     /// Elastic forces of the current substep (N); during the solve, the multilevel vectors
     /// and coarsest factor.
     force: Vec3A = [cap.v(); Vec3A::ZERO],
-    /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3.
+    /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3: on
+    /// the diagonal, on the block pattern (`q_off`) and on the scalar pattern (`q_hinge`).
     q_diag: f32 = [cap.v(); 0.0],
-    q_off: f32 = [cap.b(); 0.0],
+    q_off: f32 = [cap.e(); 0.0],
+    q_hinge: f32 = [cap.e(); 0.0],
     /// Per-node rotations (feature `research` only; empty otherwise).
     #[cfg_attr(not(feature = "research"), allow(dead_code))]
     rot: Quat = [cap.r(); Quat::IDENTITY],
@@ -253,6 +257,8 @@ pub(crate) struct Counts {
     pub n: usize,
     pub nt: usize,
     pub nnz: usize,
+    /// Entries of the scalar (hinge-only) pattern.
+    pub nnz_h: usize,
     pub pins: usize,
     pub colliders: usize,
     /// The CG preconditioner.

@@ -249,7 +249,9 @@ pub struct World<'a> {
     nt: usize,
     ne: usize,
     nh: usize,
+    /// Entries of the block pattern (edges) and of the scalar pattern (hinge-only pairs).
     nnz: usize,
+    nnz_h: usize,
     pins: usize,
     colliders: usize,
     /// The id the next collider gets (ids are not reused while their collider lives).
@@ -1101,6 +1103,7 @@ impl<'a> World<'a> {
             n: self.n,
             nt: self.nt,
             nnz: self.nnz,
+            nnz_h: self.nnz_h,
             pins: self.pins,
             colliders: self.colliders,
             solver: self.solver,
