@@ -275,21 +275,18 @@ impl<'c> Sweep<'c> {
         }
     }
 
-    /// Collider `k` (it is `col`) placed.
-    fn placed(&self, k: usize, col: &'c collide::Collider) -> Placed<'c> {
+    /// Collider `k` (it is `col`) placed: beforehand, or now into `spare` (by reference:
+    /// copying a `Placed` per vertex cost about what placing a sphere does).
+    fn placed<'a>(
+        &'a self,
+        k: usize,
+        col: &'c collide::Collider,
+        spare: &'a mut Option<Placed<'c>>,
+    ) -> &'a Placed<'c> {
         match self.first.get(k) {
-            Some(&Some(placed)) => placed,
-            _ => Placed::new(col, self.sub),
+            Some(Some(placed)) => placed,
+            _ => spare.insert(Placed::new(col, self.sub)),
         }
-    }
-
-    /// Every collider placed, in order.
-    fn iter(&self) -> impl Iterator<Item = Placed<'c>> + '_ {
-        let colliders = self.colliders;
-        colliders
-            .iter()
-            .enumerate()
-            .map(|(k, col)| self.placed(k, col))
     }
 }
 
@@ -369,9 +366,10 @@ impl Scene<'_> {
         // Computed at the first sphere or capsule the vertex does not touch, once per vertex
         // (planes and shells have no edge or face tests).
         let mut reach = None;
-        for (k, placed) in self.sweep.iter().enumerate() {
-            let col = placed.col;
-            if let Some(t) = self.vertex_touch(&placed, i) {
+        let mut spare = None;
+        for (k, col) in self.sweep.colliders.iter().enumerate() {
+            let placed = self.sweep.placed(k, col, &mut spare);
+            if let Some(t) = self.vertex_touch(placed, i) {
                 if strict && !t.reaches {
                     // Let go ([`LET_GO`]): held again only where its own motion reaches the
                     // surface, not by the slop, so the membrane that lifted it is not
@@ -393,11 +391,11 @@ impl Scene<'_> {
             else {
                 continue;
             };
-            let clearance = self.clearance(&placed, i);
-            for t in self.edge_touches(&placed, i, clearance, cutting) {
+            let clearance = self.clearance(placed, i);
+            for t in self.edge_touches(placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
-            for t in self.face_touches(&placed, i, clearance, cutting) {
+            for t in self.face_touches(placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
         }
@@ -751,7 +749,7 @@ pub(crate) fn release(
         let Some(col) = sweep.colliders.get(k) else {
             continue;
         };
-        let normal = sweep.placed(k, col).before.proximity(xi).normal;
+        let normal = sweep.placed(k, col, &mut None).before.proximity(xi).normal;
         if (aq - b).dot(normal) < 0.0 {
             *contact = NO_COLLIDER | LET_GO;
             *filter = Mat3A::IDENTITY;
@@ -872,7 +870,8 @@ pub(crate) fn resolve(
             // are Coulomb's `tan θ ≤ μ`.
             let k = collider_of(*contact);
             if let Some(col) = sweep.colliders.get(k) {
-                let placed = sweep.placed(k, col);
+                let mut spare = None;
+                let placed = sweep.placed(k, col, &mut spare);
                 let vs = placed.surface_velocity(*xi, h);
                 let nrm = placed.after.proximity(*xi).normal;
                 let impulse = aq - b;
@@ -901,8 +900,10 @@ pub(crate) fn resolve(
             }
             // Projection: nothing ends the substep deeper than `thickness`.
 
-            for placed in sweep.iter() {
-                let (col, shape) = (placed.col, &placed.after);
+            let mut spare = None;
+            for (k, col) in sweep.colliders.iter().enumerate() {
+                let placed = sweep.placed(k, col, &mut spare);
+                let shape = &placed.after;
                 let vs = placed.surface_velocity(*xi, h);
                 let hit = collide::resolve(shape, vs, col.thickness, col.friction, xi, vi);
                 if hit && vs != Vec3A::ZERO {
@@ -979,8 +980,9 @@ fn projection_is_driven(
         }
         // where the vertex began the substep (x was just advanced by exactly h v)
         let (x, start) = (xi, xi - vi * sub.h);
-        for placed in sweep.iter() {
-            let col = placed.col;
+        let mut spare = None;
+        for (k, col) in sweep.colliders.iter().enumerate() {
+            let placed = sweep.placed(k, col, &mut spare);
             if placed.after.proximity(x).distance >= col.thickness {
                 continue;
             }
