@@ -227,6 +227,18 @@ impl Shape {
         };
         v / dt
     }
+
+    /// [`Shape::surface_velocity`] when it is the same at every point (the shape moves without
+    /// turning or resizing around it: a plane, a sphere, a change of kind), else `None`: the
+    /// contact tests place a collider once per substep and reuse this for every vertex.
+    pub fn uniform_surface_velocity(&self, from: &Shape, dt: f32) -> Option<Vec3A> {
+        match (*from, *self) {
+            (Shape::Capsule { .. }, Shape::Capsule { .. })
+            | (Shape::Shell { .. }, Shape::Shell { .. }) => None,
+            // (the point is not read for these)
+            _ => Some(self.surface_velocity(from, Vec3A::ZERO, dt)),
+        }
+    }
 }
 
 /// Below this cosine between a push's direction and the collider's normal, a push along the
@@ -706,6 +718,46 @@ mod tests {
             radius: -1.0
         }
         .is_valid());
+    }
+
+    /// The velocity computed once per collider is the one of every point.
+    #[test]
+    fn uniform_surface_velocity_is_every_points() {
+        let plane = |offset| Shape::Plane {
+            normal: Vec3A::new(0.0, 0.6, 0.8),
+            offset,
+        };
+        let sphere = |x| Shape::Sphere {
+            center: Vec3A::new(x, 0.2, 0.1),
+            radius: 0.3,
+        };
+        let points = [Vec3A::ZERO, Vec3A::new(0.3, -2.0, 5.0), Vec3A::splat(1e3)];
+        for (from, to) in [
+            (plane(0.1), plane(0.35)),
+            (sphere(0.0), sphere(0.7)),
+            (sphere(0.0), plane(0.2)),
+        ] {
+            let v = to.uniform_surface_velocity(&from, 0.01).unwrap();
+            for p in points {
+                assert_eq!(v, to.surface_velocity(&from, p, 0.01));
+            }
+            assert_eq!(to.uniform_surface_velocity(&from, 0.0), Some(Vec3A::ZERO));
+        }
+        let pole = |x| Shape::Capsule {
+            a: Vec3A::new(x, 0.0, 0.0),
+            b: Vec3A::ONE,
+            radius: 0.1,
+        };
+        let shell = |r| Shape::Shell {
+            center: Vec3A::ZERO,
+            radius: r,
+        };
+        assert!(pole(1.0)
+            .uniform_surface_velocity(&pole(0.0), 0.01)
+            .is_none());
+        assert!(shell(1.0)
+            .uniform_surface_velocity(&shell(2.0), 0.01)
+            .is_none());
     }
 
     #[test]

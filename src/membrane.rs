@@ -441,7 +441,8 @@ pub fn assemble(
     {
         return Err(AssemblyError::LengthMismatch);
     }
-    let mut energy = 0.0f64;
+    // Σ A σ·e, halved at the end (exact: a power of two), one product per triangle less
+    let mut twice_energy = 0.0f64;
     diag.fill(Mat3A::ZERO);
     off.fill(Mat3A::ZERO);
     force.fill(Vec3A::ZERO);
@@ -449,8 +450,14 @@ pub fn assemble(
         let xs = corners(tri, x)?;
         let (e, d1, d2) = el.measure(xs, strain);
         let s = el.stress(e);
-        energy += 0.5 * f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
+        twice_energy += f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
         let rows: [[Vec3A; 3]; 3] = core::array::from_fn(|a| el.strain_rows(a, d1, d2));
+        for (r, &i) in rows.iter().zip(tri) {
+            let f = force
+                .get_mut(i as usize)
+                .ok_or(AssemblyError::LengthMismatch)?;
+            *f -= (r[0] * s[0] + r[1] * s[1] + r[2] * s[2]) * el.area;
+        }
         // C (∂e/∂x_b), row by row
         let [c11, c22, c33, c12, c13, c23] = el.c;
         let c_rows = |r: &[Vec3A; 3]| {
@@ -460,13 +467,6 @@ pub fn assemble(
                 r[0] * c13 + r[1] * c23 + r[2] * c33,
             ]
         };
-        let t: [[Vec3A; 3]; 3] = rows.map(|r| c_rows(&r));
-        for (r, &i) in rows.iter().zip(tri) {
-            let f = force
-                .get_mut(i as usize)
-                .ok_or(AssemblyError::LengthMismatch)?;
-            *f -= (r[0] * s[0] + r[1] * s[1] + r[2] * s[2]) * el.area;
-        }
         // Geometric stiffness `A ∇N_aᵀ Σ⁺ ∇N_b I3`, tension only: a taut membrane resists
         // sideways motion only through it, and without it that resistance is integrated
         // explicitly (a taut strip at 60 Hz goes unstable). Linear FEM has none.
@@ -484,36 +484,48 @@ pub fn assemble(
             );
             el.area * (ua * (sp[0] * ub + sp[2] * vb) + va * (sp[2] * ub + sp[1] * vb))
         };
-        // corner a's strain rows `ra`, corner b's `C (∂e/∂x_b)` rows `tb`
-        let block = |a: usize, ra: &[Vec3A; 3], b: usize, tb: &[Vec3A; 3]| {
-            let m = outer(ra[0], tb[0]) + outer(ra[1], tb[1]) + outer(ra[2], tb[2]);
-            m * el.area + Mat3A::from_diagonal(glam::Vec3::splat(geo(a, b)))
+        // `K_ab` from corner a's strain rows `ra`, corner b's `C (∂e/∂x_b)` rows `tb` and
+        // its geometric part; `transposed`: `K_abᵀ`, from the transposed outer products
+        // (the same products, so the same numbers as transposing `K_ab`, without the shuffles)
+        let block = |ra: &[Vec3A; 3], tb: &[Vec3A; 3], geo: f32, transposed: bool| {
+            let m = if transposed {
+                outer(tb[0], ra[0]) + outer(tb[1], ra[1]) + outer(tb[2], ra[2])
+            } else {
+                outer(ra[0], tb[0]) + outer(ra[1], tb[1]) + outer(ra[2], tb[2])
+            };
+            m * el.area + Mat3A::from_diagonal(glam::Vec3::splat(geo))
         };
-        for (a, ((&i, ra), ta)) in tri.iter().zip(&rows).zip(&t).enumerate() {
-            let d = diag
+        let mut add_diag = |i: u32, m: Mat3A| -> Result<(), AssemblyError> {
+            *diag
                 .get_mut(i as usize)
-                .ok_or(AssemblyError::LengthMismatch)?;
-            *d += block(a, ra, a, ta);
-        }
-        let pairs = [
-            (0, &rows[0], 1, &t[1]),
-            (0, &rows[0], 2, &t[2]),
-            (1, &rows[1], 2, &t[2]),
-        ];
-        for (p, (a, ra, b, tb)) in pairs.into_iter().enumerate() {
+                .ok_or(AssemblyError::LengthMismatch)? += m;
+            Ok(())
+        };
+        // pair p of (0,1), (0,2), (1,2)
+        let mut add_off = |p: usize, ra: &[Vec3A; 3], tb: &[Vec3A; 3], geo: f32| {
             let s = slot.get(p).copied().unwrap_or(0);
-            let m = block(a, ra, b, tb);
             let target = off
                 .get_mut((s & !TRANSPOSED) as usize)
                 .ok_or(AssemblyError::MissingBlock)?;
-            *target += if s & TRANSPOSED != 0 {
-                m.transpose()
-            } else {
-                m
-            };
-        }
+            *target += block(ra, tb, geo, s & TRANSPOSED != 0);
+            Ok(())
+        };
+        // Corner by corner, each `C (∂e/∂x_b)` just before the blocks that need it: with all
+        // nine made first, 18 vectors were live at once and most of the time went to spills.
+        // (Each block of the triangle is a different target, so the order is free.)
+        let [r0, r1, r2] = &rows;
+        let [i0, i1, i2] = *tri;
+        let t0 = c_rows(r0);
+        add_diag(i0, block(r0, &t0, geo(0, 0), false))?;
+        let t1 = c_rows(r1);
+        add_diag(i1, block(r1, &t1, geo(1, 1), false))?;
+        add_off(0, r0, &t1, geo(0, 1))?;
+        let t2 = c_rows(r2);
+        add_diag(i2, block(r2, &t2, geo(2, 2), false))?;
+        add_off(1, r0, &t2, geo(0, 2))?;
+        add_off(2, r1, &t2, geo(1, 2))?;
     }
-    Ok(energy)
+    Ok(0.5 * twice_energy)
 }
 
 /// The elastic energy `Σ_e ½ A eᵀ C e` (J) of the configuration `x`: what [`assemble`]

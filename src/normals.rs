@@ -48,24 +48,31 @@ pub fn vertex_normals(
     if out.len() != n || tri_sign.len() != triangles.len() {
         return Err(NormalsError::LengthMismatch);
     }
-    if triangles.iter().flatten().any(|&v| v as usize >= n) {
-        return Err(NormalsError::IndexOutOfRange);
-    }
-    if tri_sign.iter().any(|&s| s != 1.0 && s != -1.0) {
-        return Err(NormalsError::BadTriangleSign);
-    }
     let tri_normal = |t: &[u32; 3], s: f32| -> Vec3A {
         let [a, b, c] = t.map(|v| x.get(v as usize).copied().unwrap_or(Vec3A::ZERO));
         s * (b - a).cross(c - a)
     };
-    // Pass 1: scale of the mesh (largest |2·area|), ignoring non-finite triangles.
-    let mut largest = 0.0f32;
+    // Pass 1, with the checks of the input (nothing is written before it ends): scale of
+    // the mesh (largest |2·area|), ignoring non-finite triangles. Squared: `√` is monotone
+    // and correctly rounded, so the root of the largest square is the largest length, and
+    // a length is finite exactly when its square is; one root instead of one per triangle.
+    let (mut bad_index, mut bad_sign) = (false, false);
+    let mut largest2 = 0.0f32;
     for (t, &s) in triangles.iter().zip(tri_sign) {
-        let l = tri_normal(t, s).length();
-        if l.is_finite() {
-            largest = largest.max(l);
+        bad_index |= t.iter().any(|&v| v as usize >= n);
+        bad_sign |= s != 1.0 && s != -1.0;
+        let l2 = tri_normal(t, s).length_squared();
+        if l2.is_finite() && l2 > largest2 {
+            largest2 = l2;
         }
     }
+    if bad_index {
+        return Err(NormalsError::IndexOutOfRange);
+    }
+    if bad_sign {
+        return Err(NormalsError::BadTriangleSign);
+    }
+    let largest = libm::sqrtf(largest2);
     // 1e-18 keeps tau² a normal f32 so the fallback survives normalization.
     let tau = (1e-6 * largest).max(1e-18);
     // Pass 2: seed with the previous normal, then accumulate the triangles' 2·area·normal.

@@ -186,7 +186,7 @@ struct Hold {
 /// The substep's view of the contacts: the colliders, the cloth's state at the substep's start
 /// and its topology, and the rules that turn a proximity into a contact.
 struct Scene<'s> {
-    colliders: &'s [collide::Collider],
+    sweep: Sweep<'s>,
     x: &'s [Vec3A],
     v: &'s [Vec3A],
     ring_start: &'s [u32],
@@ -200,6 +200,10 @@ struct Scene<'s> {
     /// moves a point in a substep.
     slop_fall: f32,
     max_depenetration_speed: f32,
+    /// The cloth's longest edge at the substep's start (every ring edge and face side is one),
+    /// or `+∞` when unknown (no sphere or capsule to test edges and faces against, or a
+    /// non-finite position): see [`Scene::may_cut`].
+    longest_edge: f32,
 }
 
 /// A point's contact with one collider in a substep.
@@ -216,23 +220,77 @@ struct Touch {
 }
 
 /// A collider placed in the substep: its shape at the start (`before`) and the end
-/// (`after`). Placed once per vertex and collider and handed to every test of that pair.
+/// (`after`), and its surface velocity when that is the same everywhere (a plane's, a
+/// sphere's). Placed once per substep and collider ([`Sweep`]) and handed to every test.
+#[derive(Clone, Copy)]
 struct Placed<'c> {
     col: &'c collide::Collider,
     before: collide::Shape,
     after: collide::Shape,
+    uniform_velocity: Option<Vec3A>,
 }
 
-impl Scene<'_> {
-    fn placed<'c>(&self, col: &'c collide::Collider) -> Placed<'c> {
-        let sub = self.sub;
+impl<'c> Placed<'c> {
+    fn new(col: &'c collide::Collider, sub: Substep) -> Self {
+        let before = col.previous.lerp(&col.shape, sub.t0);
+        let after = col.previous.lerp(&col.shape, sub.t);
         Placed {
             col,
-            before: col.previous.lerp(&col.shape, sub.t0),
-            after: col.previous.lerp(&col.shape, sub.t),
+            before,
+            after,
+            uniform_velocity: after.uniform_surface_velocity(&before, sub.h),
         }
     }
 
+    /// The surface's velocity at the point nearest to `p` over the substep (length `h`).
+    fn surface_velocity(&self, p: Vec3A, h: f32) -> Vec3A {
+        self.uniform_velocity
+            .unwrap_or_else(|| self.after.surface_velocity(&self.before, p, h))
+    }
+}
+
+/// Colliders placed beforehand, this many at most (a world usually has a few); the others
+/// are placed where used.
+const PLACED: usize = 8;
+
+/// The colliders placed in a substep ([`Placed`]), once for all vertices: the contact tests
+/// visit every vertex and collider at least once per substep, and placing a collider (its
+/// sweep, its surface velocity) per vertex was a good part of the test of a far one.
+struct Sweep<'c> {
+    colliders: &'c [collide::Collider],
+    first: [Option<Placed<'c>>; PLACED],
+    sub: Substep,
+}
+
+impl<'c> Sweep<'c> {
+    fn new(colliders: &'c [collide::Collider], sub: Substep) -> Self {
+        let mut first = [None; PLACED];
+        for (slot, col) in first.iter_mut().zip(colliders) {
+            *slot = Some(Placed::new(col, sub));
+        }
+        Sweep {
+            colliders,
+            first,
+            sub,
+        }
+    }
+
+    /// Collider `k` (it is `col`) placed: beforehand, or now into `spare` (by reference:
+    /// copying a `Placed` per vertex cost about what placing a sphere does).
+    fn placed<'a>(
+        &'a self,
+        k: usize,
+        col: &'c collide::Collider,
+        spare: &'a mut Option<Placed<'c>>,
+    ) -> &'a Placed<'c> {
+        match self.first.get(k) {
+            Some(Some(placed)) => placed,
+            _ => spare.insert(Placed::new(col, self.sub)),
+        }
+    }
+}
+
+impl Scene<'_> {
     /// Whether a point at `p` (proximity `prox` at the substep's start) moving at `vp` touches
     /// `col` in this substep. Its distance at the start, advanced by its velocity relative to
     /// the collider's surface, must end within the thickness plus a small slop (a linear sweep
@@ -248,7 +306,7 @@ impl Scene<'_> {
     ) -> Option<Touch> {
         let h = self.sub.h;
         let col = placed.col;
-        let vs = placed.after.surface_velocity(&placed.before, p, h);
+        let vs = placed.surface_velocity(p, h);
         let nrm = prox.normal;
         let predicted = prox.distance + h * (vp - vs).dot(nrm);
         // Contact slop: a point predicted to end within this of its offset surface is held too.
@@ -308,9 +366,10 @@ impl Scene<'_> {
         // Computed at the first sphere or capsule the vertex does not touch, once per vertex
         // (planes and shells have no edge or face tests).
         let mut reach = None;
-        for (k, col) in self.colliders.iter().enumerate() {
-            let placed = self.placed(col);
-            if let Some(t) = self.vertex_touch(&placed, i) {
+        let mut spare = None;
+        for (k, col) in self.sweep.colliders.iter().enumerate() {
+            let placed = self.sweep.placed(k, col, &mut spare);
+            if let Some(t) = self.vertex_touch(placed, i) {
                 if strict && !t.reaches {
                     // Let go ([`LET_GO`]): held again only where its own motion reaches the
                     // surface, not by the slop, so the membrane that lifted it is not
@@ -327,19 +386,34 @@ impl Scene<'_> {
             let Some(cutting) = placed
                 .before
                 .shortest_cutting_edge(col.thickness)
+                .filter(|&cutting| self.may_cut(cutting))
                 .filter(|&cutting| cutting <= *reach.get_or_insert_with(|| self.reach(i)))
             else {
                 continue;
             };
-            let clearance = self.clearance(&placed, i);
-            for t in self.edge_touches(&placed, i, clearance, cutting) {
+            let clearance = self.clearance(placed, i);
+            for t in self.edge_touches(placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
-            for t in self.face_touches(&placed, i, clearance, cutting) {
+            for t in self.face_touches(placed, i, clearance, cutting) {
                 hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
             }
         }
         hold
+    }
+
+    /// Whether any edge or face of the cloth is long enough to pass the first test of
+    /// [`Scene::edge_touches`] (`len ≥ cutting`) or [`Scene::face_touches`] (`longest side ·
+    /// 2/√3 ≥ cutting`). When none is, a sphere or capsule cannot lie between vertices and the
+    /// vertex contacts are all there is: the usual case of a cloth finer than its colliders
+    /// (21×21 on a 0.3 m sphere: 7 cm diagonals, 11 cm cutting edge). Without this bound every
+    /// vertex near no collider went through the tests of its 6 edges and 6 faces only to have
+    /// each one rejected, ~10 % of a step. The bound is exact: a side's length here is the one
+    /// those tests compute (rounding is monotone and `√` of the largest square is the largest
+    /// length), so it rejects only what they would.
+    fn may_cut(&self, cutting: f32) -> bool {
+        let longest = self.longest_edge;
+        longest >= cutting || longest * 2.0 * FRAC_1_SQRT_3 >= cutting
     }
 
     /// No face around vertex `i` has a side longer than twice its longest edge (the side
@@ -364,9 +438,7 @@ impl Scene<'_> {
         let (Some(&xi), Some(&vi)) = (self.x.get(i), self.v.get(i)) else {
             return f32::INFINITY;
         };
-        let vs = placed
-            .after
-            .surface_velocity(&placed.before, xi, self.sub.h);
+        let vs = placed.surface_velocity(xi, self.sub.h);
         let travel = self.sub.h * (vi - vs).length();
         placed.before.proximity(xi).distance - travel - placed.col.thickness * 1.1 - self.slop_fall
     }
@@ -415,16 +487,19 @@ impl Scene<'_> {
             let [a, b, c] = corners.map(|k| k as usize);
             let p = [*self.x.get(a)?, *self.x.get(b)?, *self.x.get(c)?];
             let q = [*self.v.get(a)?, *self.v.get(b)?, *self.v.get(c)?];
-            let (xi, vi) = (*self.x.get(i)?, *self.v.get(i)?);
-            let size = p.iter().map(|&pk| (pk - xi).length()).fold(0.0, f32::max);
-            let speed = q.iter().map(|&vk| (vk - vi).length()).fold(0.0, f32::max);
             // as for an edge; a face's points lie within its circumradius of a corner, at
             // most its longest side over √3 (half of it for an obtuse one)
             let longest = (p[1] - p[0])
                 .length()
                 .max((p[2] - p[1]).length())
                 .max((p[0] - p[2]).length());
-            if longest * 2.0 * FRAC_1_SQRT_3 < cutting || clearance >= size + self.sub.h * speed {
+            if longest * 2.0 * FRAC_1_SQRT_3 < cutting {
+                return None; // (before the six lengths below: the cheaper test)
+            }
+            let (xi, vi) = (*self.x.get(i)?, *self.v.get(i)?);
+            let size = p.iter().map(|&pk| (pk - xi).length()).fold(0.0, f32::max);
+            let speed = q.iter().map(|&vk| (vk - vi).length()).fold(0.0, f32::max);
+            if clearance >= size + self.sub.h * speed {
                 return None;
             }
             let (w, prox) = placed.before.triangle_proximity(p)?;
@@ -466,20 +541,53 @@ fn scene<'s>(
     } else {
         Vec3A::ZERO
     };
+    let colliders = live(a.colliders, c.colliders)?;
+    let x = live(a.x, n)?;
+    let triangles = live(a.triangles, c.nt)?;
+    let longest_edge = if colliders.iter().any(|col| col.shape.between_vertices()) {
+        longest_edge(triangles, x)
+    } else {
+        f32::INFINITY
+    };
     Ok(Scene {
-        colliders: live(a.colliders, c.colliders)?,
-        x: live(a.x, n)?,
+        sweep: Sweep::new(colliders, sub),
+        x,
         v: live(a.v, n)?,
         ring_start: live(a.ring_start, n + 1)?,
         ring: a.ring,
         vt_start: live(a.vt_start, n + 1)?,
         vt: a.vt,
-        triangles: live(a.triangles, c.nt)?,
+        triangles,
         sub,
         gravity,
         slop_fall: gravity.length() * sub.h * sub.h,
         max_depenetration_speed: st.max_depenetration_speed,
+        longest_edge,
     })
+}
+
+/// The longest side of any triangle at positions `x` (the mesh's rings are made of these
+/// sides, `mesh::build`), or `+∞` when a side's length is not a number: the edge and face
+/// tests do not reject a NaN length, so neither may [`Scene::may_cut`].
+fn longest_edge(triangles: &[[u32; 3]], x: &[Vec3A]) -> f32 {
+    // Per side a lane (NaN checked first, so the lanes' plain `max` is exact): a scalar
+    // `f32::max` chain, NaN-aware, was most of this pass's time.
+    let mut longest2 = Vec3A::ZERO;
+    for tri in triangles {
+        let [Some(&p0), Some(&p1), Some(&p2)] = tri.map(|k| x.get(k as usize)) else {
+            continue; // no face test either (it finds no corners)
+        };
+        let sides = Vec3A::new(
+            (p1 - p0).length_squared(),
+            (p2 - p1).length_squared(),
+            (p0 - p2).length_squared(),
+        );
+        if sides.is_nan() {
+            return f32::INFINITY;
+        }
+        longest2 = longest2.max(sides);
+    }
+    libm::sqrtf(longest2.max_element())
 }
 
 /// The contacts' part of [`constrain`]: each vertex's filter, prescribed `Δv` and contact
@@ -626,7 +734,7 @@ pub(crate) fn release(
         return Ok(0);
     }
     let pins = pins_on(c, st);
-    let colliders = live(a.colliders, c.colliders)?;
+    let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     let mut released = 0;
     let vertices = live_mut(a.contact, n)?
         .iter_mut()
@@ -637,10 +745,11 @@ pub(crate) fn release(
         if !has_flag(*contact, ALONE) || (pins && pin != mesh::NONE) {
             continue;
         }
-        let Some(col) = colliders.get(collider_of(*contact)) else {
+        let k = collider_of(*contact);
+        let Some(col) = sweep.colliders.get(k) else {
             continue;
         };
-        let normal = col.previous.lerp(&col.shape, sub.t0).proximity(xi).normal;
+        let normal = sweep.placed(k, col, &mut None).before.proximity(xi).normal;
         if (aq - b).dot(normal) < 0.0 {
             *contact = NO_COLLIDER | LET_GO;
             *filter = Mat3A::IDENTITY;
@@ -732,7 +841,7 @@ pub(crate) fn resolve(
         0.0
     };
     if collide_on(c, st) {
-        let colliders = live(a.colliders, c.colliders)?;
+        let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
         let held = live(a.pin_of, n)?
             .iter()
             .zip(live(a.mass, n)?)
@@ -759,11 +868,12 @@ pub(crate) fn resolve(
             // cycle moved it by `h v_t`: a drape let go at its rim crept at ~1 mm/s forever
             // (41×41 on a sphere, 50 such vertices per step). On a uniform incline both tests
             // are Coulomb's `tan θ ≤ μ`.
-            if let Some(col) = colliders.get(collider_of(*contact)) {
-                let shape = col.previous.lerp(&col.shape, sub.t);
-                let before = col.previous.lerp(&col.shape, sub.t0);
-                let vs = shape.surface_velocity(&before, *xi, h);
-                let nrm = shape.proximity(*xi).normal;
+            let k = collider_of(*contact);
+            if let Some(col) = sweep.colliders.get(k) {
+                let mut spare = None;
+                let placed = sweep.placed(k, col, &mut spare);
+                let vs = placed.surface_velocity(*xi, h);
+                let nrm = placed.after.proximity(*xi).normal;
                 let impulse = aq - b;
                 let normal = impulse.dot(nrm).max(0.0);
                 let limit = col.friction * normal;
@@ -790,11 +900,12 @@ pub(crate) fn resolve(
             }
             // Projection: nothing ends the substep deeper than `thickness`.
 
-            for col in colliders {
-                let shape = col.previous.lerp(&col.shape, sub.t);
-                let before = col.previous.lerp(&col.shape, sub.t0);
-                let vs = shape.surface_velocity(&before, *xi, h);
-                let hit = collide::resolve(&shape, vs, col.thickness, col.friction, xi, vi);
+            let mut spare = None;
+            for (k, col) in sweep.colliders.iter().enumerate() {
+                let placed = sweep.placed(k, col, &mut spare);
+                let shape = &placed.after;
+                let vs = placed.surface_velocity(*xi, h);
+                let hit = collide::resolve(shape, vs, col.thickness, col.friction, xi, vi);
                 if hit && vs != Vec3A::ZERO {
                     vs_held = vs;
                 }
@@ -859,7 +970,7 @@ fn projection_is_driven(
     sub: Substep,
 ) -> Result<bool, StepError> {
     let pins = pins_on(c, st);
-    let colliders = live(a.colliders, c.colliders)?;
+    let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     let vertices = live(a.pin_of, c.n)?
         .iter()
         .zip(live(a.x, c.n)?.iter().zip(live(a.v, c.n)?));
@@ -869,16 +980,16 @@ fn projection_is_driven(
         }
         // where the vertex began the substep (x was just advanced by exactly h v)
         let (x, start) = (xi, xi - vi * sub.h);
-        for col in colliders {
-            let shape = col.previous.lerp(&col.shape, sub.t);
-            if shape.proximity(x).distance >= col.thickness {
+        let mut spare = None;
+        for (k, col) in sweep.colliders.iter().enumerate() {
+            let placed = sweep.placed(k, col, &mut spare);
+            if placed.after.proximity(x).distance >= col.thickness {
                 continue;
             }
             if col.previous != col.shape {
                 return Ok(true);
             }
-            let before = col.previous.lerp(&col.shape, sub.t0);
-            let depth = col.thickness - before.proximity(start).distance;
+            let depth = col.thickness - placed.before.proximity(start).distance;
             if depth > 0.1 * col.thickness + sub.h * st.max_depenetration_speed {
                 return Ok(true);
             }
