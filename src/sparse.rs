@@ -355,7 +355,7 @@ pub fn build_pattern(
 /// Cheaper than three horizontal dot products, which each need two shuffles and a final
 /// gather of three scalars.
 #[inline(always)]
-fn tmul(m: &Mat3A, vx: Vec3A, vy: Vec3A, vz: Vec3A) -> Vec3A {
+pub(crate) fn tmul(m: &Mat3A, vx: Vec3A, vy: Vec3A, vz: Vec3A) -> Vec3A {
     let t = m.transpose();
     t.x_axis * vx + t.y_axis * vy + t.z_axis * vz
 }

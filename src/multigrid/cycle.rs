@@ -2,6 +2,7 @@
 //! cycle that preconditions CG (see the module docs of [`super`]).
 
 use super::*;
+use glam::Vec3Swizzles;
 
 // ----- small block helpers -----
 
@@ -108,13 +109,19 @@ fn coarse_mul(
     for ((yi, d), &xi) in y.iter_mut().zip(diag.chunks_exact(6)).zip(x) {
         *yi = sym_mul(d, xi);
     }
-    for (i, (w, &xi)) in rs.windows(2).zip(x).enumerate() {
-        let &[a, b] = w else {
-            return Err(MgError::Internal);
-        };
-        let (a, b) = (a as usize, b as usize);
-        let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-        let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
+    // Rows from first to last, each split off the front of the rows after it (one row end
+    // and one comparison per row), the broadcasts of `x_i` hoisted out of the row.
+    let (mut cols, mut off) = (cols, off);
+    let mut start = 0usize;
+    for (i, (&end, &xi)) in rs.get(1..).unwrap_or(&[]).iter().zip(x).enumerate() {
+        let len = (end as usize).checked_sub(start).ok_or(MgError::Internal)?;
+        start = end as usize;
+        let ((rc, c), (ro, o)) = cols
+            .split_at_checked(len)
+            .zip(off.split_at_checked(9 * len))
+            .ok_or(MgError::Internal)?;
+        (cols, off) = (c, o);
+        let (vx, vy, vz) = (xi.xxx(), xi.yyy(), xi.zzz());
         let mut acc = Vec3A::ZERO;
         for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
             let m = mat_of(o);
@@ -123,7 +130,7 @@ fn coarse_mul(
                 return Err(MgError::Internal);
             };
             acc += m * xj;
-            *yj += m.transpose() * xi;
+            *yj += crate::sparse::tmul(&m, vx, vy, vz);
         }
         if let Some(yi) = y.get_mut(i) {
             *yi += acc;
