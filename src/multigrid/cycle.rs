@@ -292,7 +292,14 @@ impl<'a> Multigrid<'a> {
         ops.fill(0.0);
         let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
         let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
-        let s = |i: usize| self.filter.and_then(|f| f.get(i)).copied();
+        // A free vertex's filter block is the identity: `None`, so that its couplings are
+        // summed as they are instead of through two 3×3 products each (`I A I` is `A`).
+        let s = |i: usize| {
+            self.filter
+                .and_then(|f| f.get(i))
+                .copied()
+                .filter(|si| *si != Mat3A::IDENTITY)
+        };
         for (i, (d, &big_i)) in a.diag.iter().zip(agg).enumerate() {
             let f = match s(i) {
                 Some(si) => si * *d * si,
