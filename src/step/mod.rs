@@ -87,6 +87,8 @@ pub(crate) struct Substep {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Report {
     pub solve: pcg::Stats,
+    /// Linear solves: one, plus one per round of contacts let go.
+    pub solves: u32,
     /// Vertices touching a collider at its end.
     pub contacts: u32,
     /// Work (J) done on the cloth from outside: moving pins and colliders, wind.
@@ -107,6 +109,7 @@ pub(crate) fn substep(
     let constrained = contacts::constrain(a, c, st, sub)?;
     system::fold(a, c, st, sub.h)?;
     let mut solve = system::solve(a, c, st, sub.h, constrained)?;
+    let mut solves = 1;
     // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
     // leave another one pulling, hence the rounds).
     for _ in 0..RELEASE_ROUNDS {
@@ -114,6 +117,7 @@ pub(crate) fn substep(
             break;
         }
         let more = system::solve(a, c, st, sub.h, constrained)?;
+        solves += 1;
         solve = pcg::Stats {
             iterations: solve.iterations + more.iterations,
             ..more
@@ -138,6 +142,7 @@ pub(crate) fn substep(
     }
     Ok(Report {
         solve,
+        solves,
         contacts: touching,
         input,
     })

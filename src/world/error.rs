@@ -81,6 +81,9 @@ pub enum StepError {
 pub struct StepStats {
     /// PCG iterations summed over substeps.
     pub iterations: u32,
+    /// Linear solves summed over substeps: one per substep, plus one per round of contacts
+    /// let go because they pulled (`iterations / solves` is the cost of a solve).
+    pub solves: u32,
     /// Largest final relative residual over substeps.
     pub residual: f32,
     /// Every substep's solve reached the tolerance.
