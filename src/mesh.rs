@@ -455,9 +455,10 @@ pub fn couplings(
         if a == b || edges.find(a, b).is_some() {
             continue;
         }
-        let slot = out.get_mut(written).ok_or(MeshError::EdgeCapacity {
-            capacity: hinges.len() as u32,
-        })?;
+        let capacity = out.len() as u32;
+        let slot = out
+            .get_mut(written)
+            .ok_or(MeshError::EdgeCapacity { capacity })?;
         *slot = [h[2], h[3]];
         written += 1;
     }

@@ -1056,13 +1056,7 @@ fn random_kicks_on_a_resting_cloth_do_not_create_energy() {
     for _ in 0..200 {
         w.step().unwrap();
     }
-    let mut seed = 12345u64;
-    let mut random = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-    };
+    let mut random = uniform(12345);
     for speed in [5.0f32, 50.0] {
         let v: Vec<[f32; 3]> = (0..w.vertex_count())
             .map(|_| [speed * random(), speed * random(), speed * random()])
@@ -1583,13 +1577,7 @@ fn bending_forces_are_the_gradient_of_the_bending_energy() {
         .zip(&masses)
         .map(|(v, &m)| *v * (m / settings.time_step))
         .collect();
-    let mut state = 0x2545_f491_u64;
-    let mut uniform = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 33) as f64 / (1u64 << 31) as f64 * 2.0 - 1.0) as f32
-    };
+    let mut uniform = uniform(0x2545_f491);
     let eps = 1e-4f32;
     for _ in 0..4 {
         let d: Vec<Vec3A> = (0..x0.len())

@@ -142,3 +142,15 @@ pub fn pin_top_corners(w: &mut World<'_>, sheet: &Sheet) -> (u32, u32) {
     w.set_pin(b, sheet.positions[b as usize]).unwrap();
     (a, b)
 }
+
+/// A deterministic stream of numbers uniform in [-1, 1) (the Knuth MMIX LCG, 24 bits a
+/// draw), for random directions and kicks that repeat from run to run.
+pub fn uniform(seed: u64) -> impl FnMut() -> f32 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+}
