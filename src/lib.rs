@@ -53,6 +53,7 @@ extern crate std;
 pub mod bending;
 pub mod blob;
 pub mod collide;
+mod cpu;
 pub mod ffi;
 pub mod lattice;
 pub mod localize;

@@ -97,8 +97,39 @@ fn inverse_sym(m: &Mat3A) -> Sym {
 }
 
 /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (9 per
-/// coupling).
+/// coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
 fn coarse_mul(
+    diag: &[f32],
+    rs: &[u32],
+    cols: &[u32],
+    off: &[f32],
+    x: &[Vec3A],
+    y: &mut [Vec3A],
+) -> Result<(), MgError> {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpu::avx2() {
+        // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
+        return unsafe { coarse_mul_avx2(diag, rs, cols, off, x, y) };
+    }
+    coarse_mul_body(diag, rs, cols, off, x, y)
+}
+
+/// [`coarse_mul`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn coarse_mul_avx2(
+    diag: &[f32],
+    rs: &[u32],
+    cols: &[u32],
+    off: &[f32],
+    x: &[Vec3A],
+    y: &mut [Vec3A],
+) -> Result<(), MgError> {
+    coarse_mul_body(diag, rs, cols, off, x, y)
+}
+
+#[inline(always)]
+fn coarse_mul_body(
     diag: &[f32],
     rs: &[u32],
     cols: &[u32],
@@ -471,13 +502,43 @@ impl<'a> Multigrid<'a> {
     }
 
     /// The cycle: `z = B r` for the finest level's `r`, `z`, and `t` (scratch).
+    /// One cycle; its finest level (the vector passes around the products) in the AVX2 build
+    /// where the processor has it ([`crate::cpu`]; bit-identical).
     fn cycle(&mut self, r0: &[Vec3A], z0: &mut [Vec3A], t0: &mut [Vec3A]) -> Result<(), MgError> {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2() {
+            // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
+            return unsafe { self.cycle_avx2(r0, z0, t0) };
+        }
+        self.cycle_dispatch(r0, z0, t0)
+    }
+
+    /// [`Self::cycle`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn cycle_avx2(
+        &mut self,
+        r0: &[Vec3A],
+        z0: &mut [Vec3A],
+        t0: &mut [Vec3A],
+    ) -> Result<(), MgError> {
+        self.cycle_dispatch(r0, z0, t0)
+    }
+
+    #[inline(always)]
+    fn cycle_dispatch(
+        &mut self,
+        r0: &[Vec3A],
+        z0: &mut [Vec3A],
+        t0: &mut [Vec3A],
+    ) -> Result<(), MgError> {
         match self.filter {
             None => self.cycle_with(&Free, r0, z0, t0),
             Some(f) => self.cycle_with(&Blocks(f), r0, z0, t0),
         }
     }
 
+    #[inline(always)]
     fn cycle_with<F: Filter>(
         &mut self,
         f: &F,
@@ -1756,6 +1817,52 @@ mod tests {
                 let held = (Mat3A::IDENTITY - *s) * *zi;
                 assert!(held.length() <= 1e-6 * (1.0 + zi.length()), "{i}: {held}");
             }
+        }
+    }
+
+    /// The AVX2 builds (`crate::cpu`) of the cycle and of the coarse product give the same
+    /// bits as the baseline ones, on a filtered cloth hierarchy with a K-cycle and coarse
+    /// levels (on a machine without AVX2 there is nothing to compare).
+    #[test]
+    fn the_avx2_cycle_is_bit_identical() {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2() {
+            let mut rng = Lcg(11);
+            let (pos, tris) = grid_cloth(&mut rng, 17, true);
+            let c = cloth(&mut rng, &pos, &tris, 500.0);
+            let n = pos.len();
+            let filter = constraints(&mut rng, n);
+            let (mut mem, info) = built(&c.sys, Some(graph(&c)));
+            assert!(
+                info.levels >= 3 || (info.levels == 2 && !info.dense),
+                "{info:?}"
+            );
+            let mut mg =
+                Multigrid::new(mem.mem(), c.sys.matrix(), Some(&filter), Options::default())
+                    .unwrap();
+            let mut t = vec![Vec3A::ZERO; n];
+            for _ in 0..3 {
+                let r: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+                let (mut z, mut wide) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+                mg.cycle_dispatch(&r, &mut z, &mut t).unwrap();
+                // SAFETY: the processor supports AVX2 (checked above).
+                unsafe { mg.cycle_avx2(&r, &mut wide, &mut t) }.unwrap();
+                assert!(z
+                    .iter()
+                    .zip(&wide)
+                    .all(|(a, b)| a.to_array() == b.to_array()));
+            }
+            let lv = mg.levels[1];
+            let (diag, _, off, rs, cols) = level_ops(mg.blocks, mg.index, &lv).unwrap();
+            let x: Vec<Vec3A> = (0..lv.n).map(|_| rng.vec()).collect();
+            let (mut y, mut wide) = (vec![Vec3A::ZERO; lv.n], vec![Vec3A::ZERO; lv.n]);
+            coarse_mul_body(diag, rs, cols, off, &x, &mut y).unwrap();
+            // SAFETY: as above.
+            unsafe { coarse_mul_avx2(diag, rs, cols, off, &x, &mut wide) }.unwrap();
+            assert!(y
+                .iter()
+                .zip(&wide)
+                .all(|(a, b)| a.to_array() == b.to_array()));
         }
     }
 
