@@ -601,15 +601,16 @@ impl<'a> Multigrid<'a> {
             }
         }
         if ops.count > 1 {
-            fine_residual(a, f, r0, z0, t0)?;
             let l1 = ops.level(1)?;
             let agg: &[u32] = agg0;
             let v1 = vectors.get_mut(l1.vec..).ok_or(MgError::Internal)?;
             {
+                // The residual `S (r − A z)`, restricted in the same pass (it is not kept).
+                a.mul(z0, t0).map_err(|_| MgError::LengthMismatch)?;
                 let r1 = v1.get_mut(..l1.n).ok_or(MgError::Internal)?;
                 r1.fill(Vec3A::ZERO);
-                for (&ti, &a) in t0.iter().zip(agg) {
-                    *r1.get_mut(a as usize).ok_or(MgError::Internal)? += ti;
+                for (i, ((&ti, &ri), &a)) in t0.iter().zip(r0).zip(agg).enumerate() {
+                    *r1.get_mut(a as usize).ok_or(MgError::Internal)? += f.at(i, ri - ti);
                 }
             }
             // The fine residual is restricted: `t0` is free to save the W-cycle's iterate.
@@ -622,10 +623,22 @@ impl<'a> Multigrid<'a> {
             }
         }
         for _ in 0..nu {
-            fine_residual(a, f, r0, z0, t0)?;
             match ops.options.smoother {
-                Smoother::Jacobi => smooth_coarse(inv, omega, t0, z0),
-                Smoother::GaussSeidel => fine_backward(a, inv, f, t0, z0)?,
+                Smoother::Jacobi => {
+                    // The residual `S (r − A z)` and the sweep in one pass (it is not kept).
+                    a.mul(z0, t0).map_err(|_| MgError::LengthMismatch)?;
+                    let rows = z0
+                        .iter_mut()
+                        .zip(t0.iter().zip(r0))
+                        .zip(inv.chunks_exact(6));
+                    for (i, ((zi, (&ti, &ri)), d)) in rows.enumerate() {
+                        *zi += omega * sym_mul(d, f.at(i, ri - ti));
+                    }
+                }
+                Smoother::GaussSeidel => {
+                    fine_residual(a, f, r0, z0, t0)?;
+                    fine_backward(a, inv, f, t0, z0)?;
+                }
             }
         }
         Ok(())
