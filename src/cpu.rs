@@ -9,6 +9,32 @@
 //! so results are bit-identical whichever build runs, and a world steps identically on any
 //! x86-64 machine. `no_std`: the detection reads `cpuid` and `xgetbv` directly.
 
+/// Defines the kernel `$name` as a dispatcher over two builds of the `#[inline(always)]`
+/// function `$body` (same parameters): `$avx2`, compiled for AVX2, where [`avx2`] says the
+/// processor has it, else `$body` itself (the baseline build).
+macro_rules! multiversion {
+    ($(#[$attr:meta])* fn $name:ident, $avx2:ident => $body:ident
+        ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        $(#[$attr])*
+        fn $name($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if $crate::cpu::avx2() {
+                // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
+                return unsafe { $avx2($($arg),*) };
+            }
+            $body($($arg),*)
+        }
+
+        /// The AVX2 build of the kernel above.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn $avx2($($arg: $ty),*) -> $ret {
+            $body($($arg),*)
+        }
+    };
+}
+pub(crate) use multiversion;
+
 #[cfg(all(target_arch = "x86_64", not(miri), not(target_feature = "avx2")))]
 mod detect {
     use core::sync::atomic::{AtomicU8, Ordering};

@@ -481,42 +481,23 @@ fn last_row<'c, T>(
     }
 }
 
-/// [`mul`] plus the scalar couplings `s`, in the same backward row pass: row `i` gathers
-/// `A_ij x_j` and `s_ij x_j` into one register and scatters `A_ijᵀ x_i` and `s_ij x_i`.
-/// Errors as for [`mul`], and [`SparseError::LengthMismatch`] when `s`'s pattern does not
-/// have `n` rows.
-///
-/// Runs the AVX2 build of the same code where the processor has it ([`crate::cpu`]):
-/// bit-identical results, ~13% fewer instructions (no register copies before the
-/// destructive SSE2 operations, broadcasts straight from memory).
-fn mul_with_scalars(
-    diag: &[Mat3A],
-    p: &Pattern,
-    off: &[Mat3A],
-    s: &Scalars,
-    x: &[Vec3A],
-    y: &mut [Vec3A],
-) -> Result<(), SparseError> {
-    #[cfg(target_arch = "x86_64")]
-    if crate::cpu::avx2() {
-        // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
-        return unsafe { mul_with_scalars_avx2(diag, p, off, s, x, y) };
-    }
-    mul_with_scalars_body(diag, p, off, s, x, y)
-}
-
-/// [`mul_with_scalars`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn mul_with_scalars_avx2(
-    diag: &[Mat3A],
-    p: &Pattern,
-    off: &[Mat3A],
-    s: &Scalars,
-    x: &[Vec3A],
-    y: &mut [Vec3A],
-) -> Result<(), SparseError> {
-    mul_with_scalars_body(diag, p, off, s, x, y)
+crate::cpu::multiversion! {
+    /// [`mul`] plus the scalar couplings `s`, in the same backward row pass: row `i` gathers
+    /// `A_ij x_j` and `s_ij x_j` into one register and scatters `A_ijᵀ x_i` and `s_ij x_i`.
+    /// Errors as for [`mul`], and [`SparseError::LengthMismatch`] when `s`'s pattern does not
+    /// have `n` rows.
+    ///
+    /// Runs the AVX2 build of the same code where the processor has it ([`crate::cpu`]):
+    /// bit-identical results, ~13% fewer instructions (no register copies before the
+    /// destructive SSE2 operations, broadcasts straight from memory).
+    fn mul_with_scalars, mul_with_scalars_avx2 => mul_with_scalars_body(
+        diag: &[Mat3A],
+        p: &Pattern,
+        off: &[Mat3A],
+        s: &Scalars,
+        x: &[Vec3A],
+        y: &mut [Vec3A],
+    ) -> Result<(), SparseError>
 }
 
 #[inline(always)]

@@ -96,36 +96,17 @@ fn inverse_sym(m: &Mat3A) -> Sym {
     [inv(xx), inv(yy), inv(zz), 0.0, 0.0, 0.0]
 }
 
-/// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (9 per
-/// coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
-fn coarse_mul(
-    diag: &[f32],
-    rs: &[u32],
-    cols: &[u32],
-    off: &[f32],
-    x: &[Vec3A],
-    y: &mut [Vec3A],
-) -> Result<(), MgError> {
-    #[cfg(target_arch = "x86_64")]
-    if crate::cpu::avx2() {
-        // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
-        return unsafe { coarse_mul_avx2(diag, rs, cols, off, x, y) };
-    }
-    coarse_mul_body(diag, rs, cols, off, x, y)
-}
-
-/// [`coarse_mul`] compiled for AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn coarse_mul_avx2(
-    diag: &[f32],
-    rs: &[u32],
-    cols: &[u32],
-    off: &[f32],
-    x: &[Vec3A],
-    y: &mut [Vec3A],
-) -> Result<(), MgError> {
-    coarse_mul_body(diag, rs, cols, off, x, y)
+crate::cpu::multiversion! {
+    /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (9 per
+    /// coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
+    fn coarse_mul, coarse_mul_avx2 => coarse_mul_body(
+        diag: &[f32],
+        rs: &[u32],
+        cols: &[u32],
+        off: &[f32],
+        x: &[Vec3A],
+        y: &mut [Vec3A],
+    ) -> Result<(), MgError>
 }
 
 #[inline(always)]
@@ -1800,7 +1781,8 @@ mod tests {
 
     /// The K-cycle is not a fixed linear map, but each application is a positive correction:
     /// `rᵀ B(r) > 0` (two CG steps from zero on SPD levels), and it leaves constrained
-    /// directions alone; it is deterministic (the same input gives the same bits).
+    /// directions alone; it is deterministic (the same input gives the same bits), also across
+    /// the baseline and AVX2 builds of the cycle and of the coarse product (`crate::cpu`).
     #[test]
     fn the_k_cycle_is_positive_filtered_and_deterministic() {
         let mut rng = Lcg(7);
@@ -1830,41 +1812,21 @@ mod tests {
                 let held = (Mat3A::IDENTITY - *s) * *zi;
                 assert!(held.length() <= 1e-6 * (1.0 + zi.length()), "{i}: {held}");
             }
-        }
-    }
-
-    /// The AVX2 builds (`crate::cpu`) of the cycle and of the coarse product give the same
-    /// bits as the baseline ones, on a filtered cloth hierarchy with a K-cycle and coarse
-    /// levels (on a machine without AVX2 there is nothing to compare).
-    #[test]
-    fn the_avx2_cycle_is_bit_identical() {
-        #[cfg(target_arch = "x86_64")]
-        if crate::cpu::avx2() {
-            let mut rng = Lcg(11);
-            let (pos, tris) = grid_cloth(&mut rng, 17, true);
-            let c = cloth(&mut rng, &pos, &tris, 500.0);
-            let n = pos.len();
-            let filter = constraints(&mut rng, n);
-            let (mut mem, info) = built(&c.sys, Some(graph(&c)));
-            assert!(
-                info.levels >= 3 || (info.levels == 2 && !info.dense),
-                "{info:?}"
-            );
-            let mut mg =
-                Multigrid::new(mem.mem(), c.sys.matrix(), Some(&filter), Options::default())
-                    .unwrap();
-            let mut t = vec![Vec3A::ZERO; n];
-            for _ in 0..3 {
-                let r: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
-                let (mut z, mut wide) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
-                mg.cycle_dispatch(&r, &mut z, &mut t).unwrap();
+            #[cfg(target_arch = "x86_64")]
+            if crate::cpu::avx2() {
+                let (mut base, mut wide) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+                mg.cycle_dispatch(&r, &mut base, &mut t).unwrap();
                 // SAFETY: the processor supports AVX2 (checked above).
                 unsafe { mg.cycle_avx2(&r, &mut wide, &mut t) }.unwrap();
-                assert!(z
+                assert!(base
                     .iter()
                     .zip(&wide)
                     .all(|(a, b)| a.to_array() == b.to_array()));
+                assert_eq!(z, wide);
             }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2() {
             let lv = mg.levels[1];
             let (diag, _, off, rs, cols) = level_ops(mg.blocks, mg.index, &lv).unwrap();
             let x: Vec<Vec3A> = (0..lv.n).map(|_| rng.vec()).collect();
