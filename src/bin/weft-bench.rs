@@ -89,6 +89,9 @@ struct Run {
     /// CG iterations per linear solve (a step solves once per substep, and again after
     /// contacts that pulled are let go).
     cg_per_solve: f64,
+    /// CG iterations of a substep's first solve, and of each solve after contacts were let go.
+    cg_first: f64,
+    cg_per_resolve: f64,
     converged: f64,
     world_bytes: usize,
     /// Steps the energy balance redid, steps refused, energy it removed (J).
@@ -183,7 +186,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         world.step().map_err(|e| format!("{e:?}"))?;
     }
     let mut times = Vec::with_capacity(steps as usize);
-    let (mut iterations, mut solves) = (0u64, 0u64);
+    let (mut iterations, mut solves, mut first, mut substeps) = (0u64, 0u64, 0u64, 0u64);
     let mut converged = 0u32;
     let (mut redone, mut refused, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
     for _ in 0..steps {
@@ -194,6 +197,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
             Ok(s) => {
                 iterations += s.iterations as u64;
                 solves += s.solves as u64;
+                first += s.first_iterations as u64;
+                substeps += s.substeps as u64;
                 converged += s.converged as u32;
                 redone += (s.redone > 0) as u32;
                 removed += f64::from(s.energy_removed);
@@ -209,6 +214,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         us_max: *times.last().unwrap_or(&0.0),
         cg_mean: iterations as f64 / steps.max(1) as f64,
         cg_per_solve: iterations as f64 / solves.max(1) as f64,
+        cg_first: first as f64 / substeps.max(1) as f64,
+        cg_per_resolve: (iterations - first) as f64 / (solves - substeps.min(solves)).max(1) as f64,
         converged: converged as f64 / steps.max(1) as f64,
         world_bytes: bytes,
         redone,
@@ -286,6 +293,8 @@ fn real_main(args: &Args) -> Result<(), String> {
                 "us_per_step_max": r.us_max,
                 "cg_iterations_mean": r.cg_mean,
                 "cg_iterations_per_solve": r.cg_per_solve,
+                "cg_iterations_first_solve": r.cg_first,
+                "cg_iterations_per_resolve": r.cg_per_resolve,
                 "converged_fraction": r.converged,
                 "world_bytes": r.world_bytes,
                 "solver": args.solver,
@@ -304,6 +313,10 @@ fn real_main(args: &Args) -> Result<(), String> {
         println!(
             "CG iterations    {:.1} per step, {:.1} per solve (tolerance {})",
             r.cg_mean, r.cg_per_solve, args.tolerance
+        );
+        println!(
+            "                 {:.1} in a substep's first solve, {:.1} per re-solve after a release",
+            r.cg_first, r.cg_per_resolve
         );
         println!("converged        {:.0}% of steps", r.converged * 100.0);
         println!("solver           {}", args.solver);

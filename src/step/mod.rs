@@ -89,6 +89,8 @@ pub(crate) struct Report {
     pub solve: pcg::Stats,
     /// Linear solves: one, plus one per round of contacts let go.
     pub solves: u32,
+    /// Iterations of the first solve (`solve.iterations` sums all of them).
+    pub first_iterations: u32,
     /// Vertices touching a collider at its end.
     pub contacts: u32,
     /// Work (J) done on the cloth from outside: moving pins and colliders, wind.
@@ -109,6 +111,7 @@ pub(crate) fn substep(
     let constrained = contacts::constrain(a, c, st, sub)?;
     system::fold(a, c, st, sub.h)?;
     let mut solve = system::solve(a, c, st, sub.h, constrained)?;
+    let first_iterations = solve.iterations;
     let mut solves = 1;
     // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
     // leave another one pulling, hence the rounds).
@@ -143,6 +146,7 @@ pub(crate) fn substep(
     Ok(Report {
         solve,
         solves,
+        first_iterations,
         contacts: touching,
         input,
     })

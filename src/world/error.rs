@@ -84,6 +84,10 @@ pub struct StepStats {
     /// Linear solves summed over substeps: one per substep, plus one per round of contacts
     /// let go because they pulled (`iterations / solves` is the cost of a solve).
     pub solves: u32,
+    /// The PCG iterations of each substep's first solve, summed over substeps; the rest
+    /// (`iterations − first_iterations`) went to the solves after contacts were let go, which
+    /// start from the first solve's answer and cost a few each.
+    pub first_iterations: u32,
     /// Largest final relative residual over substeps.
     pub residual: f32,
     /// Every substep's solve reached the tolerance.

@@ -1069,6 +1069,7 @@ impl<'a> World<'a> {
             let report = step::substep(&mut self.a, &counts, &self.settings, sub)?;
             stats.iterations += report.solve.iterations;
             stats.solves += report.solves;
+            stats.first_iterations += report.first_iterations;
             stats.residual = stats.residual.max(report.solve.residual);
             stats.converged &= report.solve.converged;
             stats.contacts = report.contacts;
