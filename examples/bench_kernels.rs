@@ -200,7 +200,7 @@ fn main() {
     let settings = Settings {
         tolerance: 0.0,
         max_iterations: iters,
-        floor: 0.0,
+        ..Settings::default()
     };
     let mut w = [(); 5].map(|_| vec![Vec3A::ZERO; n]);
     for (name, f) in [

@@ -42,7 +42,11 @@
 //!     δ ≤ floor                                                (absolute, Settings::floor)
 //! ```
 //!
-//! holds, checked before the first iteration and after every one. If `δ₀ = 0` (the filtered
+//! holds, checked before the first iteration and after every one. A solve that continues an
+//! earlier one of the same right-hand side (the World's solve after contacts were let go) may
+//! bring that one's `δ₀` ([`Settings::reference`]) instead of spending a preconditioner
+//! application on its own: the filters differ by the vertices let go, the scale of "small"
+//! does not. If `δ₀ = 0` (the filtered
 //! right-hand side vanishes) the relative reference becomes the initial residual `r₀ᵀ P r₀`
 //! instead, so a problem driven only by prescribed components still converges to a relative
 //! reduction rather than never; if the initial residual is also zero the warm start is returned
@@ -135,6 +139,11 @@ pub struct Settings {
     /// residual. Units of `bᵀ A⁻¹ b` (for the World's step: joules, see the module docs).
     /// `≤ 0` or NaN turns it off.
     pub floor: f32,
+    /// The relative test's reference `δ₀`, if positive and finite: a solve that continues an
+    /// earlier one (the same right-hand side, e.g. solved again after contacts were let go)
+    /// passes that solve's [`Stats::reference`], and spends no preconditioner application on
+    /// it. `≤ 0` or NaN (the default): computed from `b`, as the module docs say.
+    pub reference: f64,
 }
 
 impl Default for Settings {
@@ -145,6 +154,7 @@ impl Default for Settings {
             tolerance: 1e-4,
             max_iterations: 200,
             floor: 0.0,
+            reference: 0.0,
         }
     }
 }
@@ -159,6 +169,9 @@ pub struct Stats {
     pub residual: f32,
     /// The relative test or the absolute floor was met within `max_iterations`.
     pub converged: bool,
+    /// The reference `δ₀` the relative test used (what a solve that continues this one may
+    /// pass as [`Settings::reference`]).
+    pub reference: f64,
 }
 
 /// Why a solve failed. `LengthMismatch` and `NonFinite` are detected before anything is
@@ -383,15 +396,21 @@ fn run<F: Filter>(
 
     // δ₀ = (S b)ᵀ P (S b): §5.3's scale for "small", filtered so that forces in constrained
     // directions (which the constraints absorb) do not loosen the test. q = S b, s = P q.
-    for (i, (qi, &bi)) in q.iter_mut().zip(b.iter()).enumerate() {
-        *qi = f.at(i, bi);
-    }
-    precond.apply(q, s, c);
-    let mut delta0 = Sum4::ZERO;
-    for (&qi, &si) in q.iter().zip(s.iter()) {
-        delta0.add(dot64(qi, si));
-    }
-    let delta0 = delta0.total();
+    // A solve that continues an earlier one brings that one's.
+    let given = settings.reference;
+    let delta0 = if given > 0.0 && given.is_finite() {
+        given
+    } else {
+        for (i, (qi, &bi)) in q.iter_mut().zip(b.iter()).enumerate() {
+            *qi = f.at(i, bi);
+        }
+        precond.apply(q, s, c);
+        let mut delta0 = Sum4::ZERO;
+        for (&qi, &si) in q.iter().zip(s.iter()) {
+            delta0.add(dot64(qi, si));
+        }
+        delta0.total()
+    };
 
     // r = S (b − A x): the warm start already carries the prescribed components, so this is
     // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`.
@@ -406,6 +425,7 @@ fn run<F: Filter>(
         iterations: 0,
         residual: relative(delta, reference),
         converged: delta <= threshold,
+        reference,
     };
     let mut delta_min = delta;
     let mut restarts = 0;
@@ -767,7 +787,7 @@ pub(crate) mod tests {
         Settings {
             tolerance,
             max_iterations,
-            floor: 0.0,
+            ..Settings::default()
         }
     }
 
@@ -826,6 +846,60 @@ pub(crate) mod tests {
             for (i, zi) in z.iter_mut().enumerate() {
                 *zi *= SCALES[(i * 7 + call * 3) % SCALES.len()];
             }
+        }
+    }
+
+    /// Block Jacobi that counts its applications.
+    struct Counted<'a> {
+        blocks: &'a [Mat3A],
+        calls: u32,
+    }
+
+    impl Preconditioner for Counted<'_> {
+        fn apply(&mut self, r: &[Vec3A], z: &mut [Vec3A], scratch: &mut [Vec3A]) {
+            self.calls += 1;
+            BlockJacobi(self.blocks).apply(r, z, scratch);
+        }
+    }
+
+    /// A solve given the reference `δ₀` of an earlier solve of the same right-hand side
+    /// (`Settings::reference`, what a solve after a release passes on) spends one
+    /// preconditioner application less, and otherwise does the same: the same bits when the
+    /// reference is its own, and the stopping test scaled by the one given.
+    #[test]
+    fn a_given_reference_saves_one_application_and_nothing_else() {
+        let mut rng = Lcg(23);
+        let n = 60;
+        let sys = System::random(&mut rng, n, 20.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let blocks = sys.precond();
+        let mut w = Scratch::new(n);
+        let run = |reference: f64, w: &mut Scratch| {
+            let mut p = Counted {
+                blocks: &blocks,
+                calls: 0,
+            };
+            let mut x = vec![Vec3A::ZERO; n];
+            let set = Settings {
+                reference,
+                ..settings(1e-5, 500)
+            };
+            let st = solve_with(&sys.matrix(), &mut p, None, &b, &mut x, &set, w.work()).unwrap();
+            (st, p.calls, x)
+        };
+        let (first, calls, x) = run(0.0, &mut w);
+        assert!(first.converged && first.reference > 0.0, "{first:?}");
+        // the same reference given: one application less, the same solve
+        let (again, fewer, y) = run(first.reference, &mut w);
+        assert_eq!(fewer + 1, calls);
+        assert_eq!((again, y), (first, x));
+        // a reference 100× larger loosens the relative test 10× (it is `sqrt(δ / δ₀)`)
+        let (loose, _, _) = run(100.0 * first.reference, &mut w);
+        assert!(loose.iterations < first.iterations, "{loose:?} {first:?}");
+        // not positive or not finite: computed
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let (st, c, _) = run(bad, &mut w);
+            assert_eq!((st, c), (first, calls));
         }
     }
 
@@ -1063,7 +1137,8 @@ pub(crate) mod tests {
             Stats {
                 iterations: 0,
                 residual: 0.0,
-                converged: true
+                converged: true,
+                reference: 0.0,
             }
         );
         // S b = 0 but a pinned vertex is displaced: the reference falls back to the initial

@@ -1422,7 +1422,7 @@ mod tests {
         Settings {
             tolerance,
             max_iterations,
-            floor: 0.0,
+            ..Settings::default()
         }
     }
 

@@ -110,7 +110,7 @@ pub(crate) fn substep(
     forces::accumulate(a, c, st, sub.h)?;
     let constrained = contacts::constrain(a, c, st, sub)?;
     system::fold(a, c, st, sub.h)?;
-    let mut solve = system::solve(a, c, st, sub.h, constrained)?;
+    let mut solve = system::solve(a, c, st, sub.h, constrained, 0.0)?;
     let first_iterations = solve.iterations;
     let mut solves = 1;
     // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
@@ -119,7 +119,7 @@ pub(crate) fn substep(
         if !constrained || contacts::release(a, c, st, sub)? == 0 {
             break;
         }
-        let more = system::solve(a, c, st, sub.h, constrained)?;
+        let more = system::solve(a, c, st, sub.h, constrained, solve.reference)?;
         solves += 1;
         solve = pcg::Stats {
             iterations: solve.iterations + more.iterations,

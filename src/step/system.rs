@@ -73,19 +73,23 @@ pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Res
 /// Solves `A Δv = rhs` for `a.dv` (the system [`fold`] made), starting from the current `a.dv`.
 /// With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so that `A Δv − rhs` is
 /// the impulse the pins and contacts supplied (their work enters the step's energy balance,
-/// and a contact that pulls is let go, `contacts::release`).
+/// and a contact that pulls is let go, `contacts::release`). `reference`: the relative test's
+/// `δ₀` of the solve this one continues (after contacts were let go: the same right-hand
+/// side, so the same scale for "small"; it saves a cycle), or 0 for a first solve.
 pub(crate) fn solve(
     a: &mut Arrays<'_>,
     c: &Counts,
     st: &Settings,
     h: f32,
     constrained: bool,
+    reference: f64,
 ) -> Result<pcg::Stats, StepError> {
     let n = c.n;
     let settings = pcg::Settings {
         tolerance: st.tolerance,
         max_iterations: st.max_iterations,
         floor: (c.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
+        reference,
     };
     #[cfg(feature = "research")]
     if st.effects & effects::WARPING != 0 && st.per_node_warping {
@@ -156,8 +160,18 @@ pub(crate) fn solve(
                 s: live_mut(a.w_s, n)?,
                 p: live_mut(a.w_p, n)?,
             };
-            pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &settings, work)
-                .map_err(|_| StepError::SolverBreakdown)?
+            // Its reference is its own (another preconditioner, another norm), and so is
+            // the next solve's.
+            let own = pcg::Settings {
+                reference: 0.0,
+                ..settings
+            };
+            let stats = pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &own, work)
+                .map_err(|_| StepError::SolverBreakdown)?;
+            pcg::Stats {
+                reference: 0.0,
+                ..stats
+            }
         }
     };
     if constrained {
