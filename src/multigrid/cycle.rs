@@ -186,6 +186,37 @@ impl<'a> Multigrid<'a> {
         filter: Option<&'a [Mat3A]>,
         options: Options,
     ) -> Result<Multigrid<'a>, MgError> {
+        let mut mg = Self::prepare(mem, a, filter, options)?;
+        mg.setup()?;
+        Ok(mg)
+    }
+
+    /// [`Multigrid::new`] for a filter that differs from the previous solve's only at the
+    /// vertices `changed` (e.g. contacts let go): `mem` must hold the operators that
+    /// [`Multigrid::new`] (or this) made for the same matrix `a` and that previous filter.
+    /// Only what the changed vertices touch is recomputed on the finest level (their block
+    /// inverses and the level-1 Galerkin blocks of their aggregates, summed in the same order
+    /// as `new` sums them); the coarse levels are set up as by `new`. The operators are
+    /// bit-identical to `new`'s. A `changed` vertex out of range is [`MgError::LengthMismatch`].
+    pub fn renew(
+        mem: Memory<'a>,
+        a: BlockMatrix<'a>,
+        filter: Option<&'a [Mat3A]>,
+        changed: &[u32],
+        options: Options,
+    ) -> Result<Multigrid<'a>, MgError> {
+        let mut mg = Self::prepare(mem, a, filter, options)?;
+        mg.setup_changed(changed)?;
+        Ok(mg)
+    }
+
+    /// The checks of [`Multigrid::new`], without the setup.
+    fn prepare(
+        mem: Memory<'a>,
+        a: BlockMatrix<'a>,
+        filter: Option<&'a [Mat3A]>,
+        options: Options,
+    ) -> Result<Multigrid<'a>, MgError> {
         let Memory {
             agg,
             index,
@@ -239,7 +270,6 @@ impl<'a> Multigrid<'a> {
         mg.options.sweeps = mg.options.sweeps.max(1);
         mg.options.coarse_sweeps = mg.options.coarse_sweeps.max(1);
         mg.options.cycle = mg.options.cycle.clamp(1, 4);
-        mg.setup()?;
         Ok(mg)
     }
 
@@ -270,82 +300,80 @@ impl<'a> Multigrid<'a> {
     /// Finest level: `D̂_i⁻¹` for the smoother and the Galerkin operator of level 1.
     fn setup_fine(&mut self) -> Result<(), MgError> {
         let a = self.a;
-        let n = a.diag.len();
-        // Filtered diagonal block S A S + τ (I − S): the constrained directions get the
-        // block's own scale so the inverse is well conditioned; they are decoupled anyway.
-        let filtered = |i: usize, d: &Mat3A| -> Mat3A {
-            match self.filter.and_then(|f| f.get(i)) {
-                Some(s) if *s != Mat3A::IDENTITY => {
-                    let tau = (d.x_axis.x + d.y_axis.y + d.z_axis.z) / 3.0;
-                    let tau = if tau.is_finite() && tau > 0.0 {
-                        tau
-                    } else {
-                        1.0
-                    };
-                    *s * *d * *s + (Mat3A::IDENTITY - *s) * tau
-                }
-                _ => *d,
-            }
-        };
-        let fine_inverse = self.blocks.get_mut(..6 * n).ok_or(MgError::Internal)?;
+        let fine_inverse = self
+            .blocks
+            .get_mut(..6 * a.diag.len())
+            .ok_or(MgError::Internal)?;
         for (i, (inv, d)) in fine_inverse.chunks_exact_mut(6).zip(a.diag).enumerate() {
-            inv.copy_from_slice(&inverse_sym(&filtered(i, d)));
+            inv.copy_from_slice(&inverse_sym(&filtered(self.filter, i, d)));
         }
         if self.count < 2 {
             return Ok(());
         }
         let l1 = self.level(1)?;
-        let agg = self.agg0;
-        let cp = Pattern {
-            row_start: part(self.index, l1.rs, l1.n + 1)?,
-            cols: part(self.index, l1.cols, l1.nnz)?,
-        };
         let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
         ops.fill(0.0);
-        let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
-        let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
-        // A free vertex's filter block is the identity: `None`, so that its couplings are
-        // summed as they are instead of through two 3×3 products each (`I A I` is `A`).
-        let s = |i: usize| {
-            self.filter
-                .and_then(|f| f.get(i))
-                .copied()
-                .filter(|si| *si != Mat3A::IDENTITY)
-        };
-        for (i, (d, &big_i)) in a.diag.iter().zip(agg).enumerate() {
-            let f = match s(i) {
-                Some(si) => si * *d * si,
-                None => *d,
-            };
-            sym_add(part_mut(cdiag, 6 * big_i as usize, 6)?, &f, 1.0);
+        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, None)
+    }
+
+    /// [`Self::setup`] after a change of the filter at the vertices `changed` only (see
+    /// [`Multigrid::renew`]).
+    fn setup_changed(&mut self, changed: &[u32]) -> Result<(), MgError> {
+        let a = self.a;
+        for &v in changed {
+            let i = v as usize;
+            let d = a.diag.get(i).ok_or(MgError::LengthMismatch)?;
+            part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inverse_sym(&filtered(
+                self.filter,
+                i,
+                d,
+            )));
         }
-        for (i, &big_i) in agg.iter().enumerate() {
-            let si = s(i);
-            for (k, j) in a.pattern.upper(i) {
-                let m = a.off.get(k).ok_or(MgError::Internal)?;
-                let big_j = *agg.get(j).ok_or(MgError::Internal)?;
-                let f = match (si, s(j)) {
-                    (None, None) => *m,
-                    (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
+        if self.count < 2 {
+            return Ok(());
+        }
+        let l1 = self.level(1)?;
+        // The aggregates the change touches, flagged in level 1's vectors (free until a
+        // cycle runs).
+        let flags: &mut [u32] =
+            bytemuck::cast_slice_mut(part_mut(self.vectors, l1.vec, l1.n.div_ceil(4))?);
+        let flags = flags.get_mut(..l1.n).ok_or(MgError::Internal)?;
+        flags.fill(0);
+        for &v in changed {
+            let big = *self.agg0.get(v as usize).ok_or(MgError::LengthMismatch)?;
+            *flags.get_mut(big as usize).ok_or(MgError::Internal)? = 1;
+        }
+        // Their level-1 blocks start again from zero, as in `setup_fine`.
+        let rs = part(self.index, l1.rs, l1.n + 1)?;
+        let cols = part(self.index, l1.cols, l1.nnz)?;
+        let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
+        {
+            let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
+            let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
+            for (big_i, (d, w)) in cdiag.chunks_exact_mut(6).zip(rs.windows(2)).enumerate() {
+                let hit = |j: usize| flags.get(j).is_some_and(|&f| f != 0);
+                if hit(big_i) {
+                    d.fill(0.0);
+                }
+                let &[lo, hi] = w else {
+                    return Err(MgError::Internal);
                 };
-                accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
-            }
-        }
-        // The scalar couplings `c s_ij I3` (`S_i S_j` between filters).
-        let scalars = a.scalars;
-        if !scalars.is_empty() {
-            for (i, &big_i) in agg.iter().enumerate() {
-                let si = s(i);
-                for (k, j) in scalars.pattern.upper(i) {
-                    let v = scalars.scale * *scalars.off.get(k).ok_or(MgError::Internal)?;
-                    let big_j = *agg.get(j).ok_or(MgError::Internal)?;
-                    let f = match (si, s(j)) {
-                        (None, None) => Mat3A::from_diagonal(glam::Vec3::splat(v)),
-                        (a, b) => a.unwrap_or(Mat3A::IDENTITY) * b.unwrap_or(Mat3A::IDENTITY) * v,
-                    };
-                    accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+                let (lo, hi) = (lo as usize, hi as usize);
+                let rc = cols.get(lo..hi).ok_or(MgError::Internal)?;
+                let ro = coff.get_mut(9 * lo..9 * hi).ok_or(MgError::Internal)?;
+                for (&big_j, o) in rc.iter().zip(ro.chunks_exact_mut(9)) {
+                    if hit(big_i) || hit(big_j as usize) {
+                        o.fill(0.0);
+                    }
                 }
             }
+        }
+        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, Some(flags))?;
+        for l in 1..self.count {
+            self.setup_coarse(l)?;
+        }
+        if self.is_dense {
+            self.factor_coarsest()?;
         }
         Ok(())
     }
@@ -1045,6 +1073,104 @@ fn level_ops<'b>(
         part(index, lv.rs, lv.n + 1)?,
         part(index, lv.cols, lv.nnz)?,
     ))
+}
+
+/// Vertex `i`'s filtered diagonal block `S A_ii S + τ (I − S)`: the constrained directions
+/// get the block's own scale so the inverse is well conditioned; they are decoupled anyway.
+fn filtered(filter: Option<&[Mat3A]>, i: usize, d: &Mat3A) -> Mat3A {
+    match filter.and_then(|f| f.get(i)) {
+        Some(s) if *s != Mat3A::IDENTITY => {
+            let tau = (d.x_axis.x + d.y_axis.y + d.z_axis.z) / 3.0;
+            let tau = if tau.is_finite() && tau > 0.0 {
+                tau
+            } else {
+                1.0
+            };
+            *s * *d * *s + (Mat3A::IDENTITY - *s) * tau
+        }
+        _ => *d,
+    }
+}
+
+/// The Galerkin operator of level 1, `Pᵀ (S A S) P`, summed into `ops` (its diagonal and
+/// coupling blocks, zero where they are to be summed): one pass over the fine blocks and
+/// scalar couplings, in vertex order. With `only`, a contribution is summed only where either
+/// of its two aggregates is flagged: the flagged blocks then receive exactly the sums, in
+/// exactly the order, of a full pass.
+fn galerkin_fine(
+    a: BlockMatrix<'_>,
+    filter: Option<&[Mat3A]>,
+    agg: &[u32],
+    index: &[u32],
+    l1: &Level,
+    ops: &mut [f32],
+    only: Option<&[u32]>,
+) -> Result<(), MgError> {
+    let cp = Pattern {
+        row_start: part(index, l1.rs, l1.n + 1)?,
+        cols: part(index, l1.cols, l1.nnz)?,
+    };
+    let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
+    let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
+    let wanted = |big_i: u32, big_j: u32| {
+        only.is_none_or(|f| {
+            f.get(big_i as usize).is_some_and(|&x| x != 0)
+                || f.get(big_j as usize).is_some_and(|&x| x != 0)
+        })
+    };
+    // A free vertex's filter block is the identity: `None`, so that its couplings are
+    // summed as they are instead of through two 3×3 products each (`I A I` is `A`).
+    let s = |i: usize| {
+        filter
+            .and_then(|f| f.get(i))
+            .copied()
+            .filter(|si| *si != Mat3A::IDENTITY)
+    };
+    for (i, (d, &big_i)) in a.diag.iter().zip(agg).enumerate() {
+        if !wanted(big_i, big_i) {
+            continue;
+        }
+        let f = match s(i) {
+            Some(si) => si * *d * si,
+            None => *d,
+        };
+        sym_add(part_mut(cdiag, 6 * big_i as usize, 6)?, &f, 1.0);
+    }
+    for (i, &big_i) in agg.iter().enumerate() {
+        let si = s(i);
+        for (k, j) in a.pattern.upper(i) {
+            let big_j = *agg.get(j).ok_or(MgError::Internal)?;
+            if !wanted(big_i, big_j) {
+                continue;
+            }
+            let m = a.off.get(k).ok_or(MgError::Internal)?;
+            let f = match (si, s(j)) {
+                (None, None) => *m,
+                (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
+            };
+            accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+        }
+    }
+    // The scalar couplings `c s_ij I3` (`S_i S_j` between filters).
+    let scalars = a.scalars;
+    if !scalars.is_empty() {
+        for (i, &big_i) in agg.iter().enumerate() {
+            let si = s(i);
+            for (k, j) in scalars.pattern.upper(i) {
+                let big_j = *agg.get(j).ok_or(MgError::Internal)?;
+                if !wanted(big_i, big_j) {
+                    continue;
+                }
+                let v = scalars.scale * *scalars.off.get(k).ok_or(MgError::Internal)?;
+                let f = match (si, s(j)) {
+                    (None, None) => Mat3A::from_diagonal(glam::Vec3::splat(v)),
+                    (a, b) => a.unwrap_or(Mat3A::IDENTITY) * b.unwrap_or(Mat3A::IDENTITY) * v,
+                };
+                accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Adds the fine block `f` between vertices of aggregates `i` and `j` (stored as the fine
@@ -1839,6 +1965,72 @@ mod tests {
                 .zip(&wide)
                 .all(|(a, b)| a.to_array() == b.to_array()));
         }
+    }
+
+    /// `renew` after some vertices' filters changed (contacts let go, others caught) gives the
+    /// operators `new` gives for the new filter, bit for bit: the finest level's inverses,
+    /// every coarse level and the coarsest factor; a changed vertex out of range is an error.
+    #[test]
+    fn renew_after_a_local_filter_change_is_new_bit_for_bit() {
+        let mut rng = Lcg(29);
+        let (pos, tris) = grid_cloth(&mut rng, 17, true);
+        let c = cloth(&mut rng, &pos, &tris, 500.0);
+        let n = pos.len();
+        let before = constraints(&mut rng, n);
+        let (mut renewed, info) = built(&c.sys, Some(graph(&c)));
+        assert!(info.levels >= 3, "{info:?}");
+        let mut fresh = built(&c.sys, Some(graph(&c))).0;
+        let options = Options::default();
+        Multigrid::new(renewed.mem(), c.sys.matrix(), Some(&before), options).unwrap();
+        // let go of every other held vertex, and catch a few free ones
+        let mut after = before.clone();
+        let mut changed = Vec::new();
+        for i in 0..n {
+            let held = before[i] != Mat3A::IDENTITY;
+            if (held && i % 2 == 0) || (!held && i % 37 == 5) {
+                after[i] = if held {
+                    Mat3A::IDENTITY
+                } else {
+                    Mat3A::IDENTITY - nn(rng.vec() + Vec3A::Y)
+                };
+                changed.push(i as u32);
+            }
+        }
+        assert!(changed.len() > 5);
+        Multigrid::renew(
+            renewed.mem(),
+            c.sys.matrix(),
+            Some(&after),
+            &changed,
+            options,
+        )
+        .unwrap();
+        Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&renewed.blocks), bits(&fresh.blocks));
+        assert_eq!(
+            renewed
+                .dense
+                .iter()
+                .map(|x| x.to_bits())
+                .collect::<Vec<_>>(),
+            fresh.dense.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+        // and the cycles agree
+        let r: Vec<Vec3A> = (0..n).map(|i| after[i] * rng.vec()).collect();
+        let mut t = vec![Vec3A::ZERO; n];
+        let (mut z1, mut z2) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+        let mut a =
+            Multigrid::renew(renewed.mem(), c.sys.matrix(), Some(&after), &[], options).unwrap();
+        a.apply(&r, &mut z1, &mut t);
+        let mut b = Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
+        b.apply(&r, &mut z2, &mut t);
+        assert_eq!(z1, z2);
+        let bad = [n as u32];
+        assert_eq!(
+            Multigrid::renew(renewed.mem(), c.sys.matrix(), Some(&after), &bad, options).err(),
+            Some(MgError::LengthMismatch)
+        );
     }
 
     #[test]

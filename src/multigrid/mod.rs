@@ -38,6 +38,10 @@
 //! block is the sum of the fine blocks between two aggregates, accumulated through the coarse
 //! pattern (one pass over the fine blocks). A fully constrained aggregate direction gives a
 //! zero coarse row; the block inverses and the Cholesky treat it as decoupled (zero output).
+//! When only a few vertices' filters changed since the last setup (contacts let go, and the
+//! solve goes on), [`Multigrid::renew`] recomputes only their inverses and the level-1 blocks
+//! of their aggregates, in the same order of sums, so the operators are `new`'s bit for bit
+//! (measured: a quarter of a full setup; 3.0 / 3.5 % of the step at 81 / 161 per side).
 //!
 //! # Cycle ([`Preconditioner::apply`])
 //!

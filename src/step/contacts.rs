@@ -736,12 +736,15 @@ pub(crate) fn release(
     let pins = pins_on(c, st);
     let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     let mut released = 0;
+    // The vertices let go, listed for the next solve (`system::Resume`) in `w_s`, the PCG's
+    // scratch, which no one reads between two solves.
+    let list: &mut [u32] = bytemuck::cast_slice_mut(live_mut(a.w_s, n)?);
     let vertices = live_mut(a.contact, n)?
         .iter_mut()
         .zip(live_mut(a.filter, n)?.iter_mut())
         .zip(live(a.pin_of, n)?.iter().zip(live(a.x, n)?))
         .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
-    for (((contact, filter), (&pin, &xi)), (&aq, &b)) in vertices {
+    for (i, (((contact, filter), (&pin, &xi)), (&aq, &b))) in vertices.enumerate() {
         if !has_flag(*contact, ALONE) || (pins && pin != mesh::NONE) {
             continue;
         }
@@ -753,6 +756,9 @@ pub(crate) fn release(
         if (aq - b).dot(normal) < 0.0 {
             *contact = NO_COLLIDER | LET_GO;
             *filter = Mat3A::IDENTITY;
+            *list
+                .get_mut(released as usize)
+                .ok_or(StepError::SolverBreakdown)? = i as u32;
             released += 1;
         }
     }

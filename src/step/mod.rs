@@ -110,20 +110,33 @@ pub(crate) fn substep(
     forces::accumulate(a, c, st, sub.h)?;
     let constrained = contacts::constrain(a, c, st, sub)?;
     system::fold(a, c, st, sub.h)?;
-    let mut solve = system::solve(a, c, st, sub.h, constrained, 0.0)?;
+    let first = system::solve(a, c, st, sub.h, constrained, None)?;
+    let (mut solve, mut operators_kept) = (first.stats, first.operators_kept);
     let first_iterations = solve.iterations;
     let mut solves = 1;
     // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
-    // leave another one pulling, hence the rounds).
+    // leave another one pulling, hence the rounds): with the first solve's reference, and
+    // with the multilevel operators set up again only around the vertices let go.
     for _ in 0..RELEASE_ROUNDS {
-        if !constrained || contacts::release(a, c, st, sub)? == 0 {
+        let released = if constrained {
+            contacts::release(a, c, st, sub)?
+        } else {
+            0
+        };
+        if released == 0 {
             break;
         }
-        let more = system::solve(a, c, st, sub.h, constrained, solve.reference)?;
+        let resume = system::Resume {
+            reference: solve.reference,
+            released: released as usize,
+            operators_kept,
+        };
+        let more = system::solve(a, c, st, sub.h, constrained, Some(resume))?;
+        operators_kept = more.operators_kept;
         solves += 1;
         solve = pcg::Stats {
-            iterations: solve.iterations + more.iterations,
-            ..more
+            iterations: solve.iterations + more.stats.iterations,
+            ..more.stats
         };
     }
     let mut input = if constrained {

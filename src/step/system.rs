@@ -70,20 +70,43 @@ pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Res
     Ok(())
 }
 
+/// A solve that goes on from an earlier one of the same system after contacts were let go
+/// (`contacts::release`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Resume {
+    /// The earlier solve's reference `δ₀` (the same right-hand side, so the same scale for
+    /// "small": it saves a cycle).
+    pub reference: f64,
+    /// How many vertices were let go; their indices are the first `u32`s of `a.w_s`, which
+    /// `contacts::release` wrote there.
+    pub released: usize,
+    /// The earlier solve left its multilevel operators in the lent pools (it did not fall
+    /// back to block Jacobi), so only what the released vertices touch is set up again.
+    pub operators_kept: bool,
+}
+
+/// What [`solve`] did.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Solved {
+    pub stats: pcg::Stats,
+    /// Its multilevel operators are in the lent pools (see [`Resume::operators_kept`]).
+    pub operators_kept: bool,
+}
+
 /// Solves `A Δv = rhs` for `a.dv` (the system [`fold`] made), starting from the current `a.dv`.
 /// With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so that `A Δv − rhs` is
 /// the impulse the pins and contacts supplied (their work enters the step's energy balance,
-/// and a contact that pulls is let go, `contacts::release`). `reference`: the relative test's
-/// `δ₀` of the solve this one continues (after contacts were let go: the same right-hand
-/// side, so the same scale for "small"; it saves a cycle), or 0 for a first solve.
+/// and a contact that pulls is let go, `contacts::release`). `resume`: the earlier solve this
+/// one goes on from, or `None` for a substep's first solve.
 pub(crate) fn solve(
     a: &mut Arrays<'_>,
     c: &Counts,
     st: &Settings,
     h: f32,
     constrained: bool,
-    reference: f64,
-) -> Result<pcg::Stats, StepError> {
+    resume: Option<Resume>,
+) -> Result<Solved, StepError> {
+    let reference = resume.map_or(0.0, |r| r.reference);
     let n = c.n;
     let settings = pcg::Settings {
         tolerance: st.tolerance,
@@ -94,7 +117,11 @@ pub(crate) fn solve(
     #[cfg(feature = "research")]
     if st.effects & effects::WARPING != 0 && st.per_node_warping {
         let (c_m, c_k) = coefficients(st, h);
-        return crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained);
+        let stats = crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained)?;
+        return Ok(Solved {
+            stats,
+            operators_kept: false,
+        });
     }
     // The hinge-only bending couplings were not folded (they have no blocks): `c_k` scales
     // them in the product.
@@ -133,7 +160,15 @@ pub(crate) fn solve(
             vectors,
         };
         let options = multigrid::Options::default();
-        if let Ok(mut mg) = multigrid::Multigrid::new(mem, op, filter, options) {
+        let built = match resume {
+            Some(r) if r.operators_kept => {
+                let listed: &[u32] = bytemuck::cast_slice(live(a.w_s, n)?);
+                let released = listed.get(..r.released).ok_or(StepError::SolverBreakdown)?;
+                multigrid::Multigrid::renew(mem, op, filter, released, options)
+            }
+            _ => multigrid::Multigrid::new(mem, op, filter, options),
+        };
+        if let Ok(mut mg) = built {
             let work = pcg::Work {
                 r: live_mut(a.w_r, n)?,
                 c: live_mut(a.w_c, n)?,
@@ -144,6 +179,7 @@ pub(crate) fn solve(
             result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
         }
     }
+    let operators_kept = result.is_ok();
     let stats = match result {
         Ok(stats) => stats,
         Err(_) => {
@@ -178,7 +214,10 @@ pub(crate) fn solve(
         op.mul(dv, live_mut(a.w_q, n)?)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
-    Ok(stats)
+    Ok(Solved {
+        stats,
+        operators_kept,
+    })
 }
 
 /// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
