@@ -1694,6 +1694,16 @@ mod tests {
         f
     }
 
+    /// A 17×17-vertex cloth (random diagonals, stiffness ratio 500) with [`constraints`] as
+    /// its filter, and the random stream after them.
+    fn constrained_cloth(seed: u64) -> (Lcg, Cloth, Vec<Mat3A>) {
+        let mut rng = Lcg(seed);
+        let (pos, tris) = grid_cloth(&mut rng, 17, true);
+        let c = cloth(&mut rng, &pos, &tris, 500.0);
+        let filter = constraints(&mut rng, pos.len());
+        (rng, c, filter)
+    }
+
     /// The world stores bending between vertices that share no edge as scalar couplings
     /// (`Scalars`), not blocks: the hierarchy, the Galerkin operators and every smoother must
     /// give the same preconditioner either way (to f32 round-off), filtered or not.
@@ -1911,11 +1921,8 @@ mod tests {
     /// the baseline and AVX2 builds of the cycle and of the coarse product (`crate::cpu`).
     #[test]
     fn the_k_cycle_is_positive_filtered_and_deterministic() {
-        let mut rng = Lcg(7);
-        let (pos, tris) = grid_cloth(&mut rng, 17, true);
-        let c = cloth(&mut rng, &pos, &tris, 500.0);
-        let n = pos.len();
-        let filter = constraints(&mut rng, n);
+        let (mut rng, c, filter) = constrained_cloth(7);
+        let n = filter.len();
         let (mut mem, info) = built(&c.sys, Some(graph(&c)));
         // Level 1 is not an exact dense solve, so it takes the K-cycle's inner CG.
         assert!(
@@ -1972,11 +1979,8 @@ mod tests {
     /// every coarse level and the coarsest factor; a changed vertex out of range is an error.
     #[test]
     fn renew_after_a_local_filter_change_is_new_bit_for_bit() {
-        let mut rng = Lcg(29);
-        let (pos, tris) = grid_cloth(&mut rng, 17, true);
-        let c = cloth(&mut rng, &pos, &tris, 500.0);
-        let n = pos.len();
-        let before = constraints(&mut rng, n);
+        let (mut rng, c, before) = constrained_cloth(29);
+        let n = before.len();
         let (mut renewed, info) = built(&c.sys, Some(graph(&c)));
         assert!(info.levels >= 3, "{info:?}");
         let mut fresh = built(&c.sys, Some(graph(&c))).0;
