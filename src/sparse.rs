@@ -179,25 +179,7 @@ impl Scalars<'_> {
         if self.is_empty() {
             return Ok(());
         }
-        let p = &self.pattern;
-        let nnz = check_lengths(x.len(), p, self.off.len(), x.len(), y.len())?;
-        let (Some(cols), Some(off)) = (p.cols.get(..nnz), self.off.get(..nnz)) else {
-            return Err(SparseError::LengthMismatch);
-        };
-        for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
-            let &[a, b] = w else {
-                return Err(SparseError::InvalidPattern);
-            };
-            let range = a as usize..b as usize;
-            let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
-                return Err(SparseError::InvalidPattern);
-            };
-            let acc = scalar_row(Vec3A::ZERO, rc, ro, self.scale * xi, x, y)?;
-            if let Some(yi) = y.get_mut(i) {
-                *yi += self.scale * acc;
-            }
-        }
-        Ok(())
+        scalar_mul_add(None, &self.pattern, self.off, self.scale, x, y)
     }
 
     /// Pattern validity and `off.len() >= nnz` (an empty pattern is valid for any `n`).
@@ -549,13 +531,26 @@ pub fn mul_scalar_add(
     x: &[Vec3A],
     y: &mut [Vec3A],
 ) -> Result<(), SparseError> {
-    let nnz = check_lengths(diag.len(), p, off.len(), x.len(), y.len())?;
+    scalar_mul_add(Some(diag), p, off, scale, x, y)
+}
+
+/// [`mul_scalar_add`] with the diagonal `diag`, or none (zero; [`Scalars::mul_add`]).
+fn scalar_mul_add(
+    diag: Option<&[f32]>,
+    p: &Pattern,
+    off: &[f32],
+    scale: f32,
+    x: &[Vec3A],
+    y: &mut [Vec3A],
+) -> Result<(), SparseError> {
+    let n_diag = diag.map_or(x.len(), <[f32]>::len);
+    let nnz = check_lengths(n_diag, p, off.len(), x.len(), y.len())?;
     let (Some(cols), Some(off)) = (p.cols.get(..nnz), off.get(..nnz)) else {
         return Err(SparseError::LengthMismatch);
     };
 
     // One pass suffices since y is only accumulated into.
-    for (i, ((w, &xi), &d)) in p.row_start.windows(2).zip(x).zip(diag).enumerate() {
+    for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
         let &[a, b] = w else {
             return Err(SparseError::InvalidPattern);
         };
@@ -563,7 +558,8 @@ pub fn mul_scalar_add(
         let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
             return Err(SparseError::InvalidPattern);
         };
-        let acc = scalar_row(d * xi, rc, ro, scale * xi, x, y)?;
+        let own = diag.and_then(|d| d.get(i)).map_or(Vec3A::ZERO, |&d| d * xi);
+        let acc = scalar_row(own, rc, ro, scale * xi, x, y)?;
         if let Some(yi) = y.get_mut(i) {
             *yi += scale * acc;
         }
