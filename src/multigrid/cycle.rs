@@ -187,7 +187,7 @@ impl<'a> Multigrid<'a> {
         options: Options,
     ) -> Result<Multigrid<'a>, MgError> {
         let mut mg = Self::prepare(mem, a, filter, options)?;
-        mg.setup()?;
+        mg.setup(None)?;
         Ok(mg)
     }
 
@@ -206,7 +206,7 @@ impl<'a> Multigrid<'a> {
         options: Options,
     ) -> Result<Multigrid<'a>, MgError> {
         let mut mg = Self::prepare(mem, a, filter, options)?;
-        mg.setup_changed(changed)?;
+        mg.setup(Some(changed))?;
         Ok(mg)
     }
 
@@ -286,8 +286,13 @@ impl<'a> Multigrid<'a> {
         self.levels.get(l).copied().ok_or(MgError::Internal)
     }
 
-    fn setup(&mut self) -> Result<(), MgError> {
-        self.setup_fine()?;
+    /// Every level's operators; with `changed`, the finest level's only where those vertices'
+    /// filters changed since the last setup ([`Multigrid::renew`]).
+    fn setup(&mut self, changed: Option<&[u32]>) -> Result<(), MgError> {
+        match changed {
+            None => self.setup_fine()?,
+            Some(changed) => self.setup_changed(changed)?,
+        }
         for l in 1..self.count {
             self.setup_coarse(l)?;
         }
@@ -312,11 +317,10 @@ impl<'a> Multigrid<'a> {
         }
         let l1 = self.level(1)?;
         let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
-        ops.fill(0.0);
         galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, None)
     }
 
-    /// [`Self::setup`] after a change of the filter at the vertices `changed` only (see
+    /// [`Self::setup_fine`] after a change of the filter at the vertices `changed` only (see
     /// [`Multigrid::renew`]).
     fn setup_changed(&mut self, changed: &[u32]) -> Result<(), MgError> {
         let a = self.a;
@@ -343,39 +347,8 @@ impl<'a> Multigrid<'a> {
             let big = *self.agg0.get(v as usize).ok_or(MgError::LengthMismatch)?;
             *flags.get_mut(big as usize).ok_or(MgError::Internal)? = 1;
         }
-        // Their level-1 blocks start again from zero, as in `setup_fine`.
-        let rs = part(self.index, l1.rs, l1.n + 1)?;
-        let cols = part(self.index, l1.cols, l1.nnz)?;
         let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
-        {
-            let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
-            let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
-            for (big_i, (d, w)) in cdiag.chunks_exact_mut(6).zip(rs.windows(2)).enumerate() {
-                let hit = |j: usize| flags.get(j).is_some_and(|&f| f != 0);
-                if hit(big_i) {
-                    d.fill(0.0);
-                }
-                let &[lo, hi] = w else {
-                    return Err(MgError::Internal);
-                };
-                let (lo, hi) = (lo as usize, hi as usize);
-                let rc = cols.get(lo..hi).ok_or(MgError::Internal)?;
-                let ro = coff.get_mut(9 * lo..9 * hi).ok_or(MgError::Internal)?;
-                for (&big_j, o) in rc.iter().zip(ro.chunks_exact_mut(9)) {
-                    if hit(big_i) || hit(big_j as usize) {
-                        o.fill(0.0);
-                    }
-                }
-            }
-        }
-        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, Some(flags))?;
-        for l in 1..self.count {
-            self.setup_coarse(l)?;
-        }
-        if self.is_dense {
-            self.factor_coarsest()?;
-        }
-        Ok(())
+        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, Some(flags))
     }
 
     /// Level `l ≥ 1`: its block inverses and the Galerkin operator of level `l + 1`.
@@ -1092,11 +1065,11 @@ fn filtered(filter: Option<&[Mat3A]>, i: usize, d: &Mat3A) -> Mat3A {
     }
 }
 
-/// The Galerkin operator of level 1, `Pᵀ (S A S) P`, summed into `ops` (its diagonal and
-/// coupling blocks, zero where they are to be summed): one pass over the fine blocks and
-/// scalar couplings, in vertex order. With `only`, a contribution is summed only where either
-/// of its two aggregates is flagged: the flagged blocks then receive exactly the sums, in
-/// exactly the order, of a full pass.
+/// The Galerkin operator of level 1, `Pᵀ (S A S) P`, into `ops` (level 1's diagonal and
+/// coupling blocks; its inverses are left to `setup_coarse`): the blocks start from zero and
+/// one pass over the fine blocks and scalar couplings, in vertex order, sums into them. With
+/// `only`, just the blocks of which either aggregate is flagged: they then start from zero and
+/// receive exactly the sums, in exactly the order, of a full pass; the others are kept.
 fn galerkin_fine(
     a: BlockMatrix<'_>,
     filter: Option<&[Mat3A]>,
@@ -1118,6 +1091,16 @@ fn galerkin_fine(
                 || f.get(big_j as usize).is_some_and(|&x| x != 0)
         })
     };
+    for (big_i, d) in cdiag.chunks_exact_mut(6).enumerate() {
+        if wanted(big_i as u32, big_i as u32) {
+            d.fill(0.0);
+        }
+        for (k, big_j) in cp.upper(big_i) {
+            if wanted(big_i as u32, big_j as u32) {
+                part_mut(coff, 9 * k, 9)?.fill(0.0);
+            }
+        }
+    }
     // A free vertex's filter block is the identity: `None`, so that its couplings are
     // summed as they are instead of through two 3×3 products each (`I A I` is `A`).
     let s = |i: usize| {
