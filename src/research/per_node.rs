@@ -85,14 +85,7 @@ pub(crate) fn elastic_rhs(
     )
     .map_err(|_| StepError::SolverBreakdown)?;
     a.rhs[..n].copy_from_slice(&a.force[..n]);
-    let hinges = Scalars {
-        pattern: Pattern {
-            row_start: &a.hinge_start[..n + 1],
-            cols: &a.hinge_cols[..c.nnz_h],
-        },
-        off: &a.q_hinge[..c.nnz_h],
-        scale: 1.0,
-    };
+    let hinges = crate::step::hinge_scalars(a.hinge_start, a.hinge_cols, a.q_hinge, c, 1.0)?;
     stiffness_apply(
         &pattern,
         &a.k_diag[..n],
@@ -146,14 +139,7 @@ pub(crate) fn solve(
         k_off: &a.k_off[..c.nnz],
         q_diag: &a.q_diag[..n],
         q_off: &a.q_off[..c.nnz],
-        hinges: Scalars {
-            pattern: Pattern {
-                row_start: &a.hinge_start[..n + 1],
-                cols: &a.hinge_cols[..c.nnz_h],
-            },
-            off: &a.q_hinge[..c.nnz_h],
-            scale: 1.0,
-        },
+        hinges: crate::step::hinge_scalars(a.hinge_start, a.hinge_cols, a.q_hinge, c, 1.0)?,
         rot: Some(&a.rot[..n]),
         mass: &a.mass[..n],
         bending: bending_on,
