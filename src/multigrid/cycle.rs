@@ -61,6 +61,25 @@ fn mat_of(o: &[f32]) -> Mat3A {
     }
 }
 
+/// The couplings of one row of a compact level, from its window `[start, end]` of the row
+/// starts: `(j, A_ij)` for each stored upper block.
+fn compact_row<'b>(
+    w: &[u32],
+    cols: &'b [u32],
+    off: &'b [f32],
+) -> Result<impl Iterator<Item = (usize, Mat3A)> + 'b, MgError> {
+    let &[a, b] = w else {
+        return Err(MgError::Internal);
+    };
+    let (a, b) = (a as usize, b as usize);
+    let rc = cols.get(a..b).ok_or(MgError::Internal)?;
+    let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
+    Ok(rc
+        .iter()
+        .zip(ro.chunks_exact(9))
+        .map(|(&j, o)| (j as usize, mat_of(o))))
+}
+
 #[inline(always)]
 fn add_mat(o: &mut [f32], m: &Mat3A) {
     for (a, b) in o.iter_mut().zip(m.to_cols_array()) {
@@ -391,17 +410,10 @@ impl<'a> Multigrid<'a> {
                 *c += v;
             }
         }
-        for (i, (w, &big_i)) in rs.windows(2).zip(agg).enumerate() {
-            let &[a, b] = w else {
-                return Err(MgError::Internal);
-            };
-            let _ = i;
-            let (a, b) = (a as usize, b as usize);
-            let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-            let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
-            for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
-                let big_j = *agg.get(j as usize).ok_or(MgError::Internal)?;
-                accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &mat_of(o))?;
+        for (w, &big_i) in rs.windows(2).zip(agg) {
+            for (j, blk) in compact_row(w, cols, off)? {
+                let big_j = *agg.get(j).ok_or(MgError::Internal)?;
+                accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &blk)?;
             }
         }
         Ok(())
@@ -432,16 +444,8 @@ impl<'a> Multigrid<'a> {
             }
         }
         for (i, w) in rs.windows(2).enumerate() {
-            let &[a, b] = w else {
-                return Err(MgError::Internal);
-            };
-            let (a, b) = (a as usize, b as usize);
-            let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-            let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
-            for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
+            for (j, blk) in compact_row(w, cols, off)? {
                 // Block (i, j), i < j, is stored; the lower triangle holds (j, i) = (i, j)ᵀ.
-                let blk = mat_of(o);
-                let j = j as usize;
                 for r in 0..3 {
                     for c in 0..3 {
                         *dense
@@ -984,16 +988,10 @@ fn forward(
         .zip(rs.windows(2))
         .enumerate()
     {
-        let &[a, b] = w else {
-            return Err(MgError::Internal);
-        };
-        let (a, b) = (a as usize, b as usize);
         let delta = sym_mul(d, *t.get(i).ok_or(MgError::Internal)?);
         *zi += delta;
-        let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-        let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
-        for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
-            *t.get_mut(j as usize).ok_or(MgError::Internal)? -= mul_t(&mat_of(o), delta);
+        for (j, blk) in compact_row(w, cols, off)? {
+            *t.get_mut(j).ok_or(MgError::Internal)? -= mul_t(&blk, delta);
         }
     }
     Ok(())
@@ -1015,15 +1013,9 @@ fn backward(
         .enumerate()
         .rev()
     {
-        let &[a, b] = w else {
-            return Err(MgError::Internal);
-        };
-        let (a, b) = (a as usize, b as usize);
         let mut s = *t.get(i).ok_or(MgError::Internal)?;
-        let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-        let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
-        for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
-            s -= mat_of(o) * *t.get(j as usize).ok_or(MgError::Internal)?;
+        for (j, blk) in compact_row(w, cols, off)? {
+            s -= blk * *t.get(j).ok_or(MgError::Internal)?;
         }
         let delta = sym_mul(d, s);
         *zi += delta;
