@@ -122,7 +122,9 @@
 #define WEFT_EFFECT_WIND (1 << 5)
 
 /**
- * Effect bit: warped (corotated) stiffness, needed for large rotations. Off: plain linear FEM.
+ * Effect bit: the rotation-invariant membrane (Green strain: the warped stiffness of §5.2),
+ * needed for large rotations. Off: plain linear FEM in the rest plane (for accuracy studies; a
+ * cloth turned away from its rest plane then stores spurious strain energy, and releases it).
  */
 #define WEFT_EFFECT_WARPING (1 << 6)
 

@@ -87,7 +87,9 @@ pub const WEFT_EFFECT_PINS: u32 = 1 << 3;
 pub const WEFT_EFFECT_COLLISION: u32 = 1 << 4;
 /// Effect bit: wind and air drag (`wind`, `drag`).
 pub const WEFT_EFFECT_WIND: u32 = 1 << 5;
-/// Effect bit: warped (corotated) stiffness, needed for large rotations. Off: plain linear FEM.
+/// Effect bit: the rotation-invariant membrane (Green strain: the warped stiffness of §5.2),
+/// needed for large rotations. Off: plain linear FEM in the rest plane (for accuracy studies; a
+/// cloth turned away from its rest plane then stores spurious strain energy, and releases it).
 pub const WEFT_EFFECT_WARPING: u32 = 1 << 6;
 /// Effect bit: a cloth at rest goes to sleep (`sleep_velocity`, `sleep_frames`) and costs
 /// nothing until an edit or `weft_world_wake` wakes it.

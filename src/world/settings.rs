@@ -12,8 +12,10 @@ pub mod effects {
     pub const COLLISION: u32 = 1 << 4;
     /// Wind and air drag.
     pub const WIND: u32 = 1 << 5;
-    /// Warped (corotated) stiffness: each triangle's forces in its own rotating frame. Off:
-    /// plain linear FEM (for the accuracy study).
+    /// The rotation-invariant membrane (Green strain, `membrane::Strain::Green`: the warped
+    /// stiffness of §5.2, exactly). Off: plain linear FEM in the rest plane (for the accuracy
+    /// study; not rotation invariant, so a cloth turned away from its rest plane stores
+    /// spurious strain energy, and releases it).
     pub const WARPING: u32 = 1 << 6;
     /// A cloth at rest goes to sleep and costs nothing until something wakes it.
     pub const SLEEP: u32 = 1 << 7;
