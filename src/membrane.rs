@@ -536,16 +536,39 @@ pub fn elastic_energy(
     x: &[Vec3A],
     strain: Strain,
 ) -> Result<f64, AssemblyError> {
+    Ok(elastic_energy_with_noise(triangles, elements, x, strain)?.0)
+}
+
+/// [`elastic_energy`] and the energy a strain of `f32` round-off carries (J): positions are
+/// `f32`, so a triangle's strain is only known to within `δe ≈ 2 ε |x|_∞ Σ|∇N|` (an ulp of
+/// its corners' coordinates over its size), and its energy to within `½ A ‖C‖ δe²` even at
+/// rest, where the energy itself is that round-off. (The part that grows with the strain,
+/// `A σ·δe`, is relative to the energy; the balance bounds it as such.) Without this a cloth
+/// at rest, whose energy is 1e-15..1e-12 J of round-off, read every round-off change as a
+/// gain and was refused at almost every step.
+pub fn elastic_energy_with_noise(
+    triangles: &[[u32; 3]],
+    elements: &[Element],
+    x: &[Vec3A],
+    strain: Strain,
+) -> Result<(f64, f64), AssemblyError> {
     if elements.len() != triangles.len() {
         return Err(AssemblyError::LengthMismatch);
     }
-    let mut energy = 0.0f64;
+    let (mut energy, mut noise) = (0.0f64, 0.0f64);
     for (tri, el) in triangles.iter().zip(elements) {
-        let (e, _, _) = el.measure(corners(tri, x)?, strain);
+        let xs = corners(tri, x)?;
+        let (e, _, _) = el.measure(xs, strain);
         let s = el.stress(e);
         energy += 0.5 * f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
+        let reach = xs.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+        let [_, _, g1u, g1v, g2u, g2v] = el.grad;
+        let de =
+            2.0 * f64::from(f32::EPSILON * reach * (g1u.abs() + g1v.abs() + g2u.abs() + g2v.abs()));
+        let [c11, c22, c33, c12, c13, c23] = el.c.map(|c| f64::from(c.abs()));
+        noise += 0.5 * f64::from(el.area) * (c11 + c22 + c33 + 2.0 * (c12 + c13 + c23)) * de * de;
     }
-    Ok(energy)
+    Ok((energy, noise))
 }
 
 /// A triangle's corner positions, checked.

@@ -38,8 +38,9 @@ pub(crate) struct Level {
     pub noise: f64,
 }
 
-/// Elastic (as the step's forces see it) and bending energy of the current positions (J), and
-/// the bending energy's round-off bound: the part of the energy that only positions set.
+/// The energy of the current positions (J): `(elastic, bending, round-off)`, the elastic
+/// energy as the step's forces see it, and the bound on the round-off of both that does not
+/// grow with them (see `membrane::elastic_energy_with_noise`, `bending::energy_with_noise`).
 pub(crate) fn shape_energy(
     a: &Arrays<'_>,
     c: &Counts,
@@ -47,13 +48,13 @@ pub(crate) fn shape_energy(
 ) -> Result<(f64, f64, f64), StepError> {
     let eff = st.effects;
     let x = live(a.x, c.n)?;
-    let elastic = membrane::elastic_energy(
+    let (elastic, elastic_noise) = membrane::elastic_energy_with_noise(
         live(a.triangles, c.nt)?,
         live(a.elements, c.nt)?,
         x,
         super::forces::membrane_strain(eff & effects::WARPING != 0),
     )
-    .unwrap_or(0.0);
+    .unwrap_or((0.0, 0.0));
     let (bending, bending_noise) = if eff & effects::BENDING != 0 {
         let pattern = pattern(a.row_start, a.cols, c)?;
         let hinges = hinge_pattern(a.hinge_start, a.hinge_cols, c)?;
@@ -67,19 +68,20 @@ pub(crate) fn shape_energy(
     } else {
         (0.0, 0.0)
     };
-    Ok((elastic, bending, bending_noise))
+    Ok((elastic, bending, elastic_noise + bending_noise))
 }
 
 /// Kinetic + elastic + bending energy of the current state, with a bound on its `f32`
 /// round-off.
 pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, StepError> {
-    let (elastic, bending, bending_noise) = shape_energy(a, c, st)?;
+    let (elastic, bending, shape_noise) = shape_energy(a, c, st)?;
     let kinetic = kinetic(live(a.mass, c.n)?, live(a.v, c.n)?);
     Ok(Level {
         energy: kinetic + elastic + bending,
         // Element strains are f32 differences of positions: ~1e-6 relative on the energy of
-        // a taut cloth; kinetic energy sums exact f32 products.
-        noise: 1e-5 * elastic + 1e-7 * kinetic + bending_noise,
+        // a taut cloth, plus the round-off strain's own energy near rest; kinetic energy sums
+        // exact f32 products.
+        noise: 1e-5 * elastic + 1e-7 * kinetic + shape_noise,
     })
 }
 
