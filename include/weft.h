@@ -527,9 +527,11 @@ enum WeftResult
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
     /**
-     * The cloth gained mechanical energy with nothing driving it (pins and colliders still, no
-     * wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
-     * beyond f32 resolution. The world kept the state it had before the step.
+     * The step's end state held more mechanical energy than its start plus the work of
+     * everything that acts from outside (gravity, wind, applied forces, moving pins and
+     * colliders), even redone with 8× the substeps, by more than its kinetic energy could give
+     * back: numerically unstable, e.g. sliver triangles beyond f32 resolution. The world kept
+     * the state it had before the step; more substeps (`WeftSettings.substeps`) may pass.
      */
     WEFT_RESULT_UNSTABLE = 68,
     /**
@@ -1028,7 +1030,7 @@ typedef struct WeftStepStats {
     uint32_t contacts;
     /**
      * Times the step was redone with twice the substeps because its end state held energy
-     * that nothing supplied (0, 1 or 2; `substeps` is the count finally used).
+     * that nothing supplied (0 to 3; `substeps` is the count finally used).
      */
     uint32_t redone;
     /**

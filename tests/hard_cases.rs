@@ -9,6 +9,7 @@ use common::*;
 use glam::Vec3A;
 use weft::blob::{AlignedBytes, Blob};
 use weft::collide::{Collider, Shape};
+use weft::strided::Strided;
 use weft::world::{effects, Capacity, ClothDef, Material, Materials, Settings, World};
 
 /// Homogenizes a cell description given as TOML text; returns the blob bytes.
@@ -167,6 +168,55 @@ fn very_stiff_fabric_at_30_hz_one_substep() {
     assert_settled(&w, 1.0, "cloth");
 }
 
+/// The same very stiff fabric hanging at 60 Hz, struck at its centre out of its plane (2, 3,
+/// 5 and 10 m/s), and dropped into a bowl (a static shell): no step may be refused from then
+/// on. Found by an outside fuzzer: with the step redone at 2× and 4× its substeps only, both
+/// still gained energy at 4× and every later call was refused, the state frozen for good;
+/// 8× holds them.
+#[test]
+fn a_very_stiff_fabric_struck_or_dropped_into_a_bowl_is_never_frozen() {
+    let mats = [Material {
+        stiffness: weft::membrane::isotropic(1e6, 0.3),
+        density: 0.2,
+        bending: 1e-3,
+    }];
+    for speed in [2.0f32, 3.0, 5.0, 10.0] {
+        let sheet = hanging_sheet(15, 1.0);
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+        pin_top_corners(&mut w, &sheet);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let centre = sheet.positions.len() / 2;
+        let m = w.masses()[centre];
+        let kick = [[0.0, m * speed, 0.0]];
+        w.add_impulses(centre, &Strided::from_slice(&kick)).unwrap();
+        let bound = energy_bound(&w, 1.0) + 0.5 * f64::from(m * speed * speed);
+        let r = run(&mut w, 300, |_, _| {});
+        assert!(
+            r.failed_steps == 0 && r.peak_kinetic < bound,
+            "struck at {speed} m/s: {r:?}"
+        );
+    }
+    for n in [4, 10] {
+        let sheet = Sheet::grid(n, n, 1.0, 1.0);
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+        let bowl = Shape::Shell {
+            center: Vec3A::new(0.5, 0.5, 0.0),
+            radius: 0.8,
+        };
+        w.add_collider(Collider::new(bowl, 0.3, 0.005)).unwrap();
+        let bound = energy_bound(&w, 1.0);
+        let r = run(&mut w, 300, |_, _| {});
+        assert!(
+            r.failed_steps == 0 && r.peak_kinetic < bound,
+            "{n}×{n} in a bowl: {r:?}"
+        );
+    }
+}
+
 #[test]
 fn a_pinned_strip_twisted_360_degrees() {
     // 2 m × 0.2 m strip along x, both short ends pinned; the right end turns once about x
@@ -291,7 +341,16 @@ fn a_collider_moving_at_50_m_per_s_through_the_cloth() {
             "vertex {k} inside"
         );
     }
-    assert!(r.peak_kinetic < energy_bound(&w, 1.0) * 20.0, "{r:?}");
+    // A kinematic surface at speed V gives what it strikes at most 2V (an elastic bounce):
+    // kinetic energy below ½ M (2V)². The sphere can catch the cloth and carry it until it
+    // parks, stretching it (work the balance counts as input), and the cloth snaps back: that
+    // is where the peak is (352 J, 101 m/s at most). Since the step is redone up to 8× its
+    // substeps, the first contact resolves at 8× (the sphere moves 10 cm per substep); at 4×
+    // it tunnelled half through and the balance took all the cloth's kinetic energy away
+    // (peak 58 J). The earlier bound, 20× a one-metre drop's, was set from that.
+    let v = 50.0;
+    let bounce = 0.5 * w.total_mass() * (2.0 * v) * (2.0 * v);
+    assert!(r.failed_steps == 0 && r.peak_kinetic < bounce, "{r:?}");
     assert_settled(&w, 1.0, "cloth");
 }
 

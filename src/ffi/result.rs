@@ -135,9 +135,11 @@ pub enum WeftResult {
     /// The step produced NaN or infinite positions; the world kept the state it had before.
     /// Usually a time step far too large for the cloth's stiffness: try more substeps.
     NonFiniteState = 67,
-    /// The cloth gained mechanical energy with nothing driving it (pins and colliders still, no
-    /// wind, no contact) over the last few steps: numerically unstable, e.g. sliver triangles
-    /// beyond f32 resolution. The world kept the state it had before the step.
+    /// The step's end state held more mechanical energy than its start plus the work of
+    /// everything that acts from outside (gravity, wind, applied forces, moving pins and
+    /// colliders), even redone with 8× the substeps, by more than its kinetic energy could give
+    /// back: numerically unstable, e.g. sliver triangles beyond f32 resolution. The world kept
+    /// the state it had before the step; more substeps (`WeftSettings.substeps`) may pass.
     Unstable = 68,
     /// A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
     TriangleOutOfRange = 69,

@@ -70,7 +70,7 @@ pub enum StepError {
     NonFiniteState,
     /// The step's end state holds more mechanical energy than its start plus the work of
     /// everything that acts from outside (wind, moving pins and colliders), even when redone
-    /// with 4× the substeps, and the excess is more than its kinetic energy can give back:
+    /// with 8× the substeps, and the excess is more than its kinetic energy can give back:
     /// numerically unstable, e.g. sliver triangles beyond `f32` resolution. The state is the
     /// one before this step.
     Unstable,
@@ -98,7 +98,7 @@ pub struct StepStats {
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
     /// Times the step was redone with twice the substeps because its end state had gained
-    /// energy that nothing supplied (0, 1 or 2; `substeps` is the count finally used).
+    /// energy that nothing supplied (0 to 3; `substeps` is the count finally used).
     pub redone: u32,
     /// Energy (J) taken out of the kinetic energy at the end because the step still gained it
     /// without input after its redos (0 for a sound step).

@@ -936,7 +936,7 @@ impl<'a> World<'a> {
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
-    /// substeps (at most twice), and what it still gains is taken out of its kinetic energy
+    /// substeps (at most three times: ×2, ×4, ×8), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]). On error the world keeps
     /// the state it had before the call.
     pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
