@@ -679,7 +679,13 @@ fn cloth_at_rest_sleeps_and_wakes() {
 #[test]
 fn a_membrane_only_cloth_at_rest_is_never_refused_and_sleeps() {
     let mats = [isotropic(2000.0, 0.3, 0.2)];
-    for (n, spacing) in [(2, 0.026f32), (2, 0.011), (21, 0.026), (21, 0.053), (21, 0.083)] {
+    for (n, spacing) in [
+        (2, 0.026f32),
+        (2, 0.011),
+        (21, 0.026),
+        (21, 0.053),
+        (21, 0.083),
+    ] {
         let size = spacing * (n - 1) as f32;
         let sheet = Sheet::grid(n, n, size, size);
         let settings = Settings {
@@ -1004,6 +1010,53 @@ fn depenetration_does_not_launch_the_cloth() {
         fastest < 2.0 * limit,
         "a sphere appearing inside threw the cloth at {fastest} m/s"
     );
+}
+
+/// A fast depenetration (`max_depenetration_speed` raised to 5 and 12.8 m/s) out of a still
+/// sphere that the cloth starts cut by: the push is a surface moving out at that speed, and its
+/// work is input to the energy balance. Found by an outside fuzzer: it was not counted, every
+/// attempt (and every redo, which pushes again) gained, and every step was refused from the
+/// first, the world frozen.
+#[test]
+fn a_fast_depenetration_out_of_a_still_sphere_is_input_not_a_gain() {
+    let mats = [isotropic(2000.0, 0.3, 0.2)];
+    for (n, speed) in [(3, 12.8f32), (5, 12.8), (15, 12.8), (3, 5.0)] {
+        let sheet = Sheet::grid(n, n, 1.0, 1.0);
+        // no gravity: pushed out, the cloth coasts (slowed by damping) at most as fast as
+        // the push
+        let settings = Settings {
+            max_depenetration_speed: speed,
+            effects: Settings::default().effects & !effects::GRAVITY,
+            ..Settings::default()
+        };
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, settings);
+        // the middle of the sheet 5 cm inside a 10 cm sphere below it
+        let sphere = Shape::Sphere {
+            center: Vec3A::new(0.51, 0.513, -0.05),
+            radius: 0.1,
+        };
+        w.add_collider(Collider::new(sphere, 0.3, 0.005)).unwrap();
+        for step in 0..100 {
+            let s = w.step();
+            assert!(s.is_ok(), "{n}×{n} at {speed} m/s: step {step}: {s:?}");
+        }
+        let fastest = w
+            .velocities()
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0, f32::max);
+        assert!(
+            fastest <= speed * 1.01,
+            "{n}×{n}: moving at {fastest} m/s after a push at {speed} m/s"
+        );
+        assert!(
+            w.positions()
+                .iter()
+                .all(|&p| sphere.proximity(p).distance > 0.005 - 1e-4),
+            "{n}×{n}: a vertex stayed inside"
+        );
+    }
 }
 
 /// Air drag is implicit (`h·drag·area·n nᵀ` in the system): a light fabric (50 g/m²) with

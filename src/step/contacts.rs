@@ -796,26 +796,47 @@ pub(crate) fn constraint_work(
             }
         }
     }
-    let colliders = live(a.colliders, c.colliders)?;
-    if collide_on(c, st) && colliders.iter().any(|col| col.previous != col.shape) {
-        // the same contacts `constrain` held (the state is unchanged until `integrate`)
-        let scene = scene(a, c, st, sub)?;
+    if collide_on(c, st) {
+        // the same contacts `constrain` held (the state is unchanged until `integrate`); a
+        // still collider's surfaces do not move
+        let colliders = live(a.colliders, c.colliders)?;
+        let moving = colliders.iter().any(|col| col.previous != col.shape);
+        let scene = if moving {
+            Some(scene(a, c, st, sub)?)
+        } else {
+            None
+        };
         let vertices = live(a.contact, n)?
             .iter()
             .zip(live(a.pin_of, n)?)
             .zip(live(a.filter, n)?)
-            .zip(w_q.iter().zip(rhs));
-        for (i, (((&contact, &pin), &filter), (&aq, &b))) in vertices.enumerate() {
+            .zip(w_q.iter().zip(rhs))
+            .zip(live(a.v, n)?.iter().zip(live(a.dv, n)?));
+        for (i, ((((&contact, &pin), &filter), (&aq, &b)), (&v, &dv))) in vertices.enumerate() {
             if pin != mesh::NONE || filter == Mat3A::IDENTITY {
                 continue;
             }
-            let hold = scene.hold(i, has_flag(contact, STRICT));
-            let stuck = match hold.primary {
-                Some((_, vs)) if contact & STICK != 0 => vs,
-                _ => Vec3A::ZERO,
+            let surface = match &scene {
+                Some(scene) => {
+                    let hold = scene.hold(i, has_flag(contact, STRICT));
+                    let stuck = match hold.primary {
+                        Some((_, vs)) if contact & STICK != 0 => vs,
+                        _ => Vec3A::ZERO,
+                    };
+                    hold.held.surface_velocity(stuck)
+                }
+                None => Vec3A::ZERO,
             };
-            let held = Mat3A::IDENTITY - filter;
-            work += f64::from((held * (aq - b)).dot(hold.held.surface_velocity(stuck)));
+            let impulse = (Mat3A::IDENTITY - filter) * (aq - b);
+            work += f64::from(impulse.dot(surface));
+            // A contact that pushes a vertex out faster than its surface moves (out of a
+            // penetration, at up to `max_depenetration_speed`) puts in what its impulse does
+            // at the vertex's mean velocity over the substep, relative to the surface,
+            // `J·(v + ½Δv − v_s)`: exactly the kinetic energy an impulse from `v` to `v + Δv`
+            // gives. (At the end velocity it would also count the impact it absorbs, and hide
+            // a gain; stopped or drawn toward its surface, a vertex gives energy up: the step's
+            // own loss, not counted.)
+            work += f64::from(impulse.dot(v + 0.5 * dv - surface).max(0.0));
         }
     }
     Ok(work)
