@@ -1074,8 +1074,11 @@ impl<'a> World<'a> {
             stats.converged &= report.solve.converged;
             stats.contacts = report.contacts;
             input += report.input;
-            // the estimate of the input is as good as the solve that gave its impulses
-            noise += report.input.abs() * f64::from(report.solve.residual.max(1e-3));
+            // the estimate of the input is as good as the solve that gave its impulses, and no
+            // worse than none: a relative residual measured against a near-zero right-hand side
+            // can be any size (an outside fuzzer saw 2e3, which made the floor 1.9e8 J and let
+            // a step gain 1e3 J)
+            noise += report.input.abs() * f64::from(report.solve.residual.clamp(1e-3, 1.0));
         }
         self.last_input = (input, noise);
         Ok(stats)
