@@ -9,7 +9,8 @@
 //! ```
 //!
 //! where `W_input` is the work of everything that acts from outside: moving pins and colliders
-//! (their constraint impulses times their velocities, `contacts.rs`), the wind (`forces.rs`)
+//! (their constraint impulses times their velocities, `contacts.rs`), contacts pushing a
+//! vertex out of a collider faster than its surface moves (depenetration), the wind (`forces.rs`)
 //! and the forces the engine applied for the step (constant over it, so their work is
 //! measured from displacements, like gravity's). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
 //! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
@@ -66,6 +67,7 @@ pub(crate) fn shape_energy(
                 (pattern, live(a.q_off, c.nnz)?),
                 (hinges, live(a.q_hinge, c.nnz_h)?),
             ],
+            live(a.q_diag, c.n)?,
             x,
         )
     } else {
