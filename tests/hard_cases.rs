@@ -96,11 +96,7 @@ fn run(w: &mut World<'_>, frames: usize, mut frame: impl FnMut(&mut World<'_>, u
 /// At rest: every vertex slower than a millimetre per second per metre of cloth.
 fn assert_settled(w: &World<'_>, size: f32, what: &str) {
     // (or slower than 10 µm/s: at rest to any eye, and the f32 noise floor of a 1 mm cloth)
-    let fastest = w
-        .velocities()
-        .iter()
-        .map(|v| v.length())
-        .fold(0.0, f32::max);
+    let fastest = top_speed(w);
     let limit = (1e-3 * size).max(1e-5);
     assert!(
         fastest < limit,
@@ -566,11 +562,7 @@ fn a_sphere_pushed_into_a_flat_hanging_cloth() {
             let s = (f + 1) as f32 / 120.0;
             w.set_collider_shape(0, sphere(0.3 - 0.5 * s)).unwrap();
         });
-        let fastest = w
-            .velocities()
-            .iter()
-            .map(|v| v.length())
-            .fold(0.0, f32::max);
+        let fastest = top_speed(&w);
         // the sphere moves at 0.25 m/s; the cloth may be flicked, not launched
         assert!(
             fastest < 5.0,
@@ -627,11 +619,7 @@ density = 0.2
             converged += s.converged as u32;
             iterations += u64::from(s.iterations);
         }
-        let fastest = w
-            .velocities()
-            .iter()
-            .map(|v| v.length())
-            .fold(0.0, f32::max);
+        let fastest = top_speed(&w);
         println!(
             "{solver:?}: {converged}/{solves} converged, {:.1} iterations per step, fastest \
              vertex {fastest} m/s",

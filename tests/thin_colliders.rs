@@ -82,13 +82,6 @@ fn run(
     redone
 }
 
-fn fastest(w: &World<'_>) -> f32 {
-    w.velocities()
-        .iter()
-        .map(|v| v.length())
-        .fold(0.0, f32::max)
-}
-
 /// A coarse cloth dropped across a 2 cm pole, the pole between two rows of vertices: it hangs
 /// over the pole (only its edges touch it), no edge ever cuts into the pole, and its swing dies
 /// out.
@@ -259,7 +252,7 @@ fn a_vertex_in_the_groove_of_two_colliders_rests_outside_both() {
                 );
             }
         }
-        speeds.push(fastest(w));
+        speeds.push(top_speed(w));
     });
     let x = w.positions();
     let in_groove = x

@@ -117,6 +117,14 @@ pub fn world<'a>(
     .unwrap()
 }
 
+/// The fastest vertex's speed (m/s).
+pub fn top_speed(w: &World<'_>) -> f32 {
+    w.velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0, f32::max)
+}
+
 pub fn kinetic_energy(w: &World<'_>) -> f64 {
     w.velocities()
         .iter()
