@@ -918,6 +918,45 @@ fn strong_bending_on_thin_triangles_never_gains_energy() {
     }
 }
 
+/// Pins switched on (`set_settings`) after their vertices fell away with pins off: they take
+/// the vertices back over a step as moving pins (their work counted), so no step is refused or
+/// has energy taken out, and the vertices end on their targets. Found by an outside fuzzer:
+/// from their old targets the pins yanked the vertices back in one substep (here: redone at 8×
+/// and 27 J removed; there, 0.09 J became 75 J and every later step was refused).
+#[test]
+fn pins_switched_on_after_the_cloth_fell_take_it_back() {
+    let sheet = hanging_sheet(11, 0.5);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let free = Settings {
+        effects: Settings::default().effects & !effects::PINS,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, free);
+    pin_top_corners(&mut w, &sheet);
+    for _ in 0..20 {
+        w.step().unwrap();
+    }
+    let (a, b) = (sheet.index(0, 10) as usize, sheet.index(10, 10) as usize);
+    let fell = w.positions()[a].distance(Vec3A::from(sheet.positions[a]));
+    assert!(
+        fell > 0.3,
+        "the pinned corner fell only {fell} m with pins off"
+    );
+    w.set_settings(Settings::default()).unwrap();
+    for step in 0..120 {
+        let s = w.step();
+        assert!(
+            s.is_ok_and(|s| s.energy_removed == 0.0),
+            "step {step} after pins were switched on: {s:?}"
+        );
+    }
+    for k in [a, b] {
+        let off = w.positions()[k].distance(Vec3A::from(sheet.positions[k]));
+        assert!(off < 1e-5, "pinned vertex {k} is {off} m off its target");
+    }
+}
+
 /// A cloth read in place from an interleaved vertex buffer (position, uv, padding per 28-byte
 /// record) with one material for every triangle builds the same world as the packed arrays,
 /// and the strided setters equal the slice ones.

@@ -357,6 +357,23 @@ impl<'a> World<'a> {
     pub fn set_settings(&mut self, settings: Settings) -> Result<(), InitError> {
         settings.validate()?;
         if settings != self.settings {
+            let pins_on = |s: &Settings| s.effects & effects::PINS != 0;
+            if pins_on(&settings) && !pins_on(&self.settings) {
+                // Pins switched on start where their vertices are, as a new pin does
+                // ([`World::set_pin_axes`]), and reach their targets over the next step as
+                // moving pins (whose work the energy balance counts). From their old targets
+                // they yanked a vertex that had moved away in one substep: an outside fuzzer
+                // saw 0.09 J become 75 J, and every later step refused.
+                let a = &mut self.a;
+                let pinned = prefix_mut(a.pin_previous, self.pins)
+                    .iter_mut()
+                    .zip(prefix(a.pin_vertex, self.pins));
+                for (previous, &vertex) in pinned {
+                    if let Some(&x) = a.x.get(vertex as usize) {
+                        *previous = x;
+                    }
+                }
+            }
             self.settings = settings;
             self.wake();
         }
