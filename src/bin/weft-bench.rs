@@ -192,6 +192,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
     let (mut iterations, mut solves, mut first, mut substeps) = (0u64, 0u64, 0u64, 0u64);
     let mut converged = 0u32;
     let (mut redone, mut refused, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
+    let mut final_strain = worst_edge_strain(&world);
     for _ in 0..steps {
         let t0 = Instant::now();
         let r = world.step();
@@ -209,7 +210,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
             Err(weft::world::StepError::Unstable) => refused += 1,
             Err(e) => return Err(format!("{e:?}")),
         }
-        worst_strain = worst_strain.max(worst_edge_strain(&world));
+        final_strain = worst_edge_strain(&world);
+        worst_strain = worst_strain.max(final_strain);
     }
     times.sort_by(|a, b| a.total_cmp(b));
     Ok(Run {
@@ -225,7 +227,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         refused,
         removed,
         worst_strain,
-        final_strain: worst_edge_strain(&world),
+        final_strain,
     })
 }
 
