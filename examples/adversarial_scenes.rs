@@ -423,6 +423,18 @@ fn moved_shape(s: &Shape, d: Vec3A, dr: f32) -> Shape {
     }
 }
 
+/// The items whose indices `list` names (comma-separated), in order: what the `NOCOL`,
+/// `NOPIN` and `NOEV` overrides keep of a scene's colliders, pins and events.
+fn keep_listed<T>(items: Vec<T>, list: &str) -> Vec<T> {
+    let keep: Vec<usize> = list.split(',').filter_map(|x| x.parse().ok()).collect();
+    items
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| keep.contains(i))
+        .map(|(_, item)| item)
+        .collect()
+}
+
 fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     let mut r = Rng::new(seed);
     let quiet = r.chance(0.35);
@@ -799,31 +811,13 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
         };
     }
     if let Some(v) = env("NOCOL") {
-        let keep: Vec<usize> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-        cols = cols
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| keep.contains(i))
-            .map(|(_, c)| c)
-            .collect();
+        cols = keep_listed(cols, &v);
     }
     if let Some(v) = env("NOPIN") {
-        let keep: Vec<usize> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-        pins = pins
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| keep.contains(i))
-            .map(|(_, c)| c)
-            .collect();
+        pins = keep_listed(pins, &v);
     }
     if let Some(v) = env("NOEV") {
-        let keep: Vec<usize> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-        events = events
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| keep.contains(i))
-            .map(|(_, c)| c)
-            .collect();
+        events = keep_listed(events, &v);
     }
     if let Some(v) = env("KICK0") {
         kick0 = v.parse().unwrap();
