@@ -678,7 +678,13 @@ fn cloth_at_rest_sleeps_and_wakes() {
 /// round-off now has an absolute bound (`membrane::elastic_energy_with_noise`).
 #[test]
 fn a_membrane_only_cloth_at_rest_is_never_refused_and_sleeps() {
-    let mats = [isotropic(2000.0, 0.3, 0.2)];
+    // isotropic, and the anisotropic test fabric (C12 ≠ 0, C11 = 4 C22)
+    for mats in [[isotropic(2000.0, 0.3, 0.2)], [anisotropic()]] {
+        at_rest_and_nudged(&mats);
+    }
+}
+
+fn at_rest_and_nudged(mats: &[Material]) {
     for (n, spacing) in [
         (2, 0.026f32),
         (2, 0.011),
@@ -693,7 +699,7 @@ fn a_membrane_only_cloth_at_rest_is_never_refused_and_sleeps() {
             ..Settings::default()
         };
         let mut mem = memory(&sheet.capacity());
-        let mut w = world(&mut mem, &sheet, &mats, settings);
+        let mut w = world(&mut mem, &sheet, mats, settings);
         for step in 0..100 {
             let s = w.step();
             assert!(s.is_ok(), "{n}×{n} at {spacing} m: step {step}: {s:?}");
@@ -708,7 +714,7 @@ fn a_membrane_only_cloth_at_rest_is_never_refused_and_sleeps() {
         ..Settings::default()
     };
     let mut mem = memory(&sheet.capacity());
-    let mut w = world(&mut mem, &sheet, &mats, settings);
+    let mut w = world(&mut mem, &sheet, mats, settings);
     let v: Vec<[f32; 3]> = (0..100)
         .map(|i| {
             let a = i as f32 * 2.4;
@@ -1108,8 +1114,16 @@ fn depenetration_does_not_launch_the_cloth() {
 /// first, the world frozen.
 #[test]
 fn a_fast_depenetration_out_of_a_still_sphere_is_input_not_a_gain() {
-    let mats = [isotropic(2000.0, 0.3, 0.2)];
-    for (n, speed) in [(3, 12.8f32), (5, 12.8), (15, 12.8), (3, 5.0)] {
+    let (iso, aniso) = ([isotropic(2000.0, 0.3, 0.2)], [anisotropic()]);
+    let cases = [
+        (3, 12.8f32, &iso),
+        (5, 12.8, &iso),
+        (15, 12.8, &iso),
+        (3, 5.0, &iso),
+        (5, 12.8, &aniso),
+        (15, 5.0, &aniso),
+    ];
+    for (n, speed, mats) in cases {
         let sheet = Sheet::grid(n, n, 1.0, 1.0);
         // no gravity: pushed out, the cloth coasts (slowed by damping) at most as fast as
         // the push
@@ -1119,7 +1133,7 @@ fn a_fast_depenetration_out_of_a_still_sphere_is_input_not_a_gain() {
             ..Settings::default()
         };
         let mut mem = memory(&sheet.capacity());
-        let mut w = world(&mut mem, &sheet, &mats, settings);
+        let mut w = world(&mut mem, &sheet, mats, settings);
         // the middle of the sheet 5 cm inside a 10 cm sphere below it
         let sphere = Shape::Sphere {
             center: Vec3A::new(0.51, 0.513, -0.05),
