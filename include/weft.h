@@ -1502,6 +1502,8 @@ WeftResult weft_world_get_velocities(const struct WeftWorld *world,
  * `i * stride`, read unaligned. `count` must equal `weft_world_vertex_count`; `stride` ≥ 12.
  * Velocities are kept. Checks every value first (`WEFT_RESULT_NON_FINITE` names the vertex);
  * nothing changes on failure. Wakes the world. For teleports: the next step starts from here.
+ * A pinned vertex keeps its pin: set away from the pin's target, it is carried back over the
+ * next step (move the pin with `weft_world_set_pin`).
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for
@@ -1566,7 +1568,8 @@ WeftResult weft_world_get_velocities_range(const struct WeftWorld *world,
  * `first .. first + count - 1` from `src`
  * (vertex `first + k` at byte `k * stride`, read unaligned, `stride` ≥ 12); the others keep
  * theirs. Checks the range and every value first (`WEFT_RESULT_NON_FINITE` names the
- * vertex); nothing changes on failure. Wakes the world.
+ * vertex); nothing changes on failure. Wakes the world. Pinned vertices as in
+ * `weft_world_set_positions`.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL); `src` is readable for

@@ -1801,3 +1801,36 @@ fn bending_forces_are_the_gradient_of_the_bending_energy() {
         );
     }
 }
+
+/// An engine that moves a hanging cloth with `set_positions` (pinned vertices included, pins
+/// left where they are) gets it carried back to its pins over the next step as by moving pins,
+/// with no energy removed and no step refused.
+#[test]
+fn positions_set_away_from_their_pins_are_carried_back() {
+    let sheet = hanging_sheet(11, 0.5);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+    pin_top_corners(&mut w, &sheet);
+    for _ in 0..30 {
+        w.step().unwrap();
+    }
+    let moved: Vec<[f32; 3]> = w
+        .positions()
+        .iter()
+        .map(|p| [p.x + 0.3, p.y - 0.2, p.z + 0.1])
+        .collect();
+    w.set_positions(&moved).unwrap();
+    for step in 0..120 {
+        let s = w.step();
+        assert!(
+            s.is_ok_and(|s| s.energy_removed == 0.0),
+            "step {step} after the cloth was moved: {s:?}"
+        );
+    }
+    let (a, b) = (sheet.index(0, 10) as usize, sheet.index(10, 10) as usize);
+    for k in [a, b] {
+        let off = w.positions()[k].distance(Vec3A::from(sheet.positions[k]));
+        assert!(off < 1e-5, "pinned vertex {k} is {off} m off its target");
+    }
+}
