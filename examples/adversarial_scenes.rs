@@ -1293,14 +1293,24 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
     out
 }
 
+/// The size of the mesh's bounding box (m), per axis.
+fn extent(positions: &[[f32; 3]]) -> [f32; 3] {
+    let (lo, hi) = positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &p| (lo.min(Vec3::from(p)), hi.max(Vec3::from(p))),
+    );
+    (hi - lo).to_array()
+}
+
 fn describe(sc: &Scene) -> String {
     format!(
-        "seed {} quiet={} mesh={} n={} nt={} place={} offset={:?} mats={:?} solver={:?} steps={} kick0={}\n  settings={:?}\n  pins={:?}\n  cols={:?}\n  events={:?}",
+        "seed {} quiet={} mesh={} n={} nt={} extent={:?} place={} offset={:?} mats={:?} solver={:?} steps={} kick0={}\n  settings={:?}\n  pins={:?}\n  cols={:?}\n  events={:?}",
         sc.seed,
         sc.quiet,
         sc.mesh.kind,
         sc.mesh.positions.len(),
         sc.mesh.triangles.len(),
+        extent(&sc.mesh.positions),
         sc.placement,
         sc.offset,
         sc.mats,
