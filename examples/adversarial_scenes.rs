@@ -822,6 +822,12 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     if let Some(v) = env("KICK0") {
         kick0 = v.parse().unwrap();
     }
+    let mut solver = solver;
+    match env("SOLVER").as_deref() {
+        Some("jacobi") => solver = Solver::BlockJacobi,
+        Some("multigrid") => solver = Solver::Multigrid,
+        _ => {}
+    }
     if let Some(v) = env("CELLS") {
         mats = MatChoice::Blob(v.split(',').map(|x| x.parse().unwrap()).collect());
     }
