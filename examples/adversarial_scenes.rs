@@ -854,6 +854,9 @@ struct Outcome {
     steps: usize,
     errors: std::collections::BTreeMap<String, usize>,
     max_consec_err: usize,
+    /// Steps the world held still (`StepStats::stopped`), and the longest run of them.
+    stopped: usize,
+    max_consec_stop: usize,
     redone: usize,
     removed: usize,
     unconverged: usize,
@@ -954,6 +957,7 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
     let mut force_steps: Vec<(f32, usize, Vec<[f32; 3]>)> = vec![];
     let mut t = 0.0f32;
     let mut consec = 0usize;
+    let mut consec_stop = 0usize;
     let mut col_static_for: Vec<usize> = vec![0; sc.cols.len()];
     let mut transformed = false; // pins/colliders relative to cloth invalid after transform
     let mut last_stats: Option<weft::world::StepStats> = None;
@@ -1115,6 +1119,13 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
             Ok(s) => {
                 consec = 0;
                 last_stats = Some(s);
+                if s.stopped {
+                    out.stopped += 1;
+                    consec_stop += 1;
+                    out.max_consec_stop = out.max_consec_stop.max(consec_stop);
+                } else {
+                    consec_stop = 0;
+                }
                 if s.redone > 0 {
                     out.redone += 1;
                 }
@@ -1289,6 +1300,12 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
             t = t1;
         }
     }
+    if out.max_consec_stop >= 25 {
+        out.anomalies.push(format!(
+            "persistent stop: held still at {} consecutive steps",
+            out.max_consec_stop
+        ));
+    }
     if out.max_consec_err >= 5 {
         out.anomalies.push(format!(
             "persistent refusal: {} consecutive errors; last started {}",
@@ -1388,7 +1405,7 @@ fn main() {
                 let max = ts.last().copied().unwrap_or(0.0);
                 let argmax = o.step_times.iter().position(|&x| x == max).unwrap_or(0);
                 println!(
-                    "SCENE {seed} quiet={} mesh={} n={} sub={} dt={:.4} tol={:.1e} maxit={} solver={:?} pins={} cols={} steps={} init={:?} errors={:?} maxconsec={} redone={} removed={} unconv={} asleep={} rises={} worst_rise={:.3e} rel={:.3e} at={} vmax={:.3} vviol={} pen={} worstpen={:.3e} med_ms={:.3} max_ms={:.3} argmax={} wall={:.2} hash={:016x}",
+                    "SCENE {seed} quiet={} mesh={} n={} sub={} dt={:.4} tol={:.1e} maxit={} solver={:?} pins={} cols={} steps={} init={:?} errors={:?} maxconsec={} stopped={} maxstop={} redone={} removed={} unconv={} asleep={} rises={} worst_rise={:.3e} rel={:.3e} at={} vmax={:.3} vviol={} pen={} worstpen={:.3e} med_ms={:.3} max_ms={:.3} argmax={} wall={:.2} hash={:016x}",
                     sc.quiet as usize,
                     sc.mesh.kind.replace(' ', "_"),
                     sc.mesh.positions.len(),
@@ -1403,6 +1420,8 @@ fn main() {
                     o.init_error,
                     o.errors,
                     o.max_consec_err,
+                    o.stopped,
+                    o.max_consec_stop,
                     o.redone,
                     o.removed,
                     o.unconverged,

@@ -527,11 +527,10 @@ enum WeftResult
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
     /**
-     * The step's end state held more mechanical energy than its start plus the work of
-     * everything that acts from outside (gravity, wind, applied forces, moving pins and
-     * colliders), even redone with 8× the substeps, by more than its kinetic energy could give
-     * back: numerically unstable, e.g. sliver triangles beyond f32 resolution. The world kept
-     * the state it had before the step; more substeps (`WeftSettings.substeps`) may pass.
+     * The step's energy balance is not a number (its energies overflowed `double`). The world
+     * kept the state it had before the step. (A step that gains energy is redone with more
+     * substeps, and as a last resort the cloth is held still for the step:
+     * `WeftStepStats.stopped`.)
      */
     WEFT_RESULT_UNSTABLE = 68,
     /**
@@ -1037,6 +1036,13 @@ typedef struct WeftStepStats {
      * Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
      */
     float energy_removed;
+    /**
+     * 1 when even the redos gained more energy than the kinetic energy could give back, so
+     * the world held the cloth still for this step instead: positions as at its start,
+     * velocities zero (`energy_removed` is the kinetic energy it had), pins moving to their
+     * targets over the next step; else 0.
+     */
+    uint32_t stopped;
 } WeftStepStats;
 
 /**

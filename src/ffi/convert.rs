@@ -239,6 +239,7 @@ pub(super) fn stats_to_c(s: &StepStats) -> WeftStepStats {
         contacts: s.contacts,
         redone: s.redone,
         energy_removed: s.energy_removed,
+        stopped: s.stopped.into(),
     }
 }
 

@@ -117,6 +117,7 @@ no_padding!(WeftStepStats {
     contacts: u32,
     redone: u32,
     energy_removed: f32,
+    stopped: u32,
 });
 no_padding!(WeftLocalizeOutput {
     positions: *mut c_void,

@@ -135,11 +135,10 @@ pub enum WeftResult {
     /// The step produced NaN or infinite positions; the world kept the state it had before.
     /// Usually a time step far too large for the cloth's stiffness: try more substeps.
     NonFiniteState = 67,
-    /// The step's end state held more mechanical energy than its start plus the work of
-    /// everything that acts from outside (gravity, wind, applied forces, moving pins and
-    /// colliders), even redone with 8× the substeps, by more than its kinetic energy could give
-    /// back: numerically unstable, e.g. sliver triangles beyond f32 resolution. The world kept
-    /// the state it had before the step; more substeps (`WeftSettings.substeps`) may pass.
+    /// The step's energy balance is not a number (its energies overflowed `double`). The world
+    /// kept the state it had before the step. (A step that gains energy is redone with more
+    /// substeps, and as a last resort the cloth is held still for the step:
+    /// `WeftStepStats.stopped`.)
     Unstable = 68,
     /// A triangle range reaches past the last triangle: `detail.needed` is the triangle count.
     TriangleOutOfRange = 69,
@@ -346,7 +345,7 @@ fn message(result: WeftResult) -> &'static CStr {
         R::NonFinitePin => c"pin target not finite",
         R::SolverBreakdown => c"linear solver broke down",
         R::NonFiniteState => c"step produced non-finite state",
-        R::Unstable => c"the cloth gains energy with nothing driving it (unstable)",
+        R::Unstable => c"the step's energy balance is not a number (unstable)",
         R::BindOutOfDomain => c"fine vertex outside the coarse cloth's (u, v)",
         R::BindMemoryTooSmall => c"bindings block smaller than weft_bind_memory_size",
         R::BindingsInvalid => c"not a bindings block written by weft_bind",

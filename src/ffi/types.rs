@@ -246,6 +246,11 @@ pub struct WeftStepStats {
     pub redone: u32,
     /// Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
     pub energy_removed: f32,
+    /// 1 when even the redos gained more energy than the kinetic energy could give back, so
+    /// the world held the cloth still for this step instead: positions as at its start,
+    /// velocities zero (`energy_removed` is the kinetic energy it had), pins moving to their
+    /// targets over the next step; else 0.
+    pub stopped: u32,
 }
 
 /// A point or vector in double precision: the world's origin (`weft_world_set_origin`).

@@ -16,8 +16,10 @@
 //! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
 //! every step of every scene; when a step fails it, the world redoes it with twice the
 //! substeps (three times at most: ×2, ×4, ×8), and if it still gains, the excess is taken out of the free
-//! vertices' kinetic energy. Only a gain beyond a quarter of the energy in play, after all
-//! that, refuses the step ([`crate::world::StepError::Unstable`]): a blow-up, not a drift.
+//! vertices' kinetic energy. A gain beyond that kinetic energy, after all that, holds the
+//! cloth still for the step: the start positions with no velocity, which always balances
+//! ([`crate::world::StepStats::stopped`]). No step is refused for its energy (refusing kept
+//! the start state, from which the next call failed again: the cloth froze).
 
 use glam::Vec3A;
 

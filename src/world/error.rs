@@ -68,11 +68,9 @@ pub enum StepError {
     SolverBreakdown,
     /// The step produced NaN or infinite positions or velocities.
     NonFiniteState,
-    /// The step's end state holds more mechanical energy than its start plus the work of
-    /// everything that acts from outside (wind, moving pins and colliders), even when redone
-    /// with 8× the substeps, and the excess is more than its kinetic energy can give back:
-    /// numerically unstable, e.g. sliver triangles beyond `f32` resolution. The state is the
-    /// one before this step.
+    /// The step's energy balance is not a number (its energies overflowed `f64`). The state
+    /// is the one before this step. (A step that gains energy is redone, and as a last resort
+    /// the cloth is held still: [`StepStats::stopped`].)
     Unstable,
 }
 
@@ -106,6 +104,11 @@ pub struct StepStats {
     /// The energy balance of the step (J): end energy − start energy − work of external
     /// input, before any removal. ≤ 0 for a step that dissipates.
     pub energy_gain: f32,
+    /// Even redone with 8× the substeps, the step gained more energy than its kinetic energy
+    /// could give back, so the world held the cloth still instead: positions as at the start
+    /// of the step, velocities zero (`energy_removed` is the kinetic energy it had); its pins
+    /// move to their targets over the next step. The next step starts from rest.
+    pub stopped: bool,
 }
 
 /// A cloth's mechanical energy by kind (J).
@@ -200,7 +203,7 @@ impl fmt::Display for StepError {
             StepError::NonFiniteState => {
                 f.write_str("the step produced non-finite positions or velocities")
             }
-            StepError::Unstable => f.write_str("the step created energy that nothing supplied"),
+            StepError::Unstable => f.write_str("the step's energy balance is not a number"),
         }
     }
 }
