@@ -950,22 +950,7 @@ pub(crate) fn resolve(
         }
     }
     if pins {
-        let x = live_mut(a.x, n)?;
-        for (vertex, previous, target, free) in
-            pins_of((a.pin_vertex, a.pin_previous, a.pin_target, a.pin_free), c)?
-        {
-            // pinned vertices are < n
-            let xi = x
-                .get_mut(vertex as usize)
-                .ok_or(StepError::SolverBreakdown)?;
-            let target = previous.lerp(target, sub.t);
-            *xi = if free == Mat3A::ZERO {
-                target
-            } else {
-                // onto the plane or line through the target, along the held directions
-                *xi + (Mat3A::IDENTITY - free) * (target - *xi)
-            };
-        }
+        place_pins(a, c, sub.t)?;
     }
     if driven {
         // What the projection put in. Where it took potential energy out instead (it undid a
@@ -976,6 +961,28 @@ pub(crate) fn resolve(
         work += (monitor::potential(a, c, st)? - potential_before).max(0.0);
     }
     Ok((contacts, work))
+}
+
+/// Puts the pinned vertices on their targets (the held directions of them) as they are at the
+/// fraction `t` of the step (the targets move linearly across it).
+pub(crate) fn place_pins(a: &mut Arrays<'_>, c: &Counts, t: f32) -> Result<(), StepError> {
+    let x = live_mut(a.x, c.n)?;
+    for (vertex, previous, target, free) in
+        pins_of((a.pin_vertex, a.pin_previous, a.pin_target, a.pin_free), c)?
+    {
+        // pinned vertices are < n
+        let xi = x
+            .get_mut(vertex as usize)
+            .ok_or(StepError::SolverBreakdown)?;
+        let target = previous.lerp(target, t);
+        *xi = if free == Mat3A::ZERO {
+            target
+        } else {
+            // onto the plane or line through the target, along the held directions
+            *xi + (Mat3A::IDENTITY - free) * (target - *xi)
+        };
+    }
+    Ok(())
 }
 
 /// Every pin as `(vertex, previous target, target, free directions)`: the target moves from

@@ -1016,11 +1016,6 @@ impl<'a> World<'a> {
             c.previous = c.shape;
         }
         copy_live(self.a.pin_previous, self.a.pin_target, self.pins);
-        if stats.stopped {
-            // The cloth stayed where it started: its pins move to their targets over the
-            // next step, from their vertices.
-            self.start_pins_at_their_vertices(0..n);
-        }
         prefix_mut(self.a.applied_force, n).fill([0.0; 3]);
         if eff & effects::SLEEP != 0 {
             let limit = self.settings.sleep_velocity * self.settings.sleep_velocity;
@@ -1077,7 +1072,7 @@ impl<'a> World<'a> {
             let excess = gain - floor;
             let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess)?;
             if removed < excess {
-                break self.stop(stats)?;
+                break self.stop(pins_on, stats)?;
             }
             stats.energy_removed = removed as f32;
             self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
@@ -1089,21 +1084,27 @@ impl<'a> World<'a> {
     /// The step's last resort, when even its redos gain more than their kinetic energy can
     /// give back (a flat cloth kicked out of its plane stretches in one linearized substep,
     /// and the stretch shrinks only as h⁴; a solve that cannot converge in `f32`): the cloth
-    /// is held still for this step, where it started, with no velocity. That state holds
-    /// less energy than the start by its kinetic energy, so it always balances, and the next
-    /// step starts from rest (its pins from their vertices, see [`World::step_dt`]). Refusing
-    /// the step instead kept the start state, from which the next call failed the same way:
-    /// an outside fuzzer saw such cloths refused at every later step, frozen.
-    fn stop(&mut self, stats: StepStats) -> Result<StepStats, StepError> {
+    /// is held still for this step, where it started, with no velocity, and its pinned
+    /// vertices are put on their targets (what the pins do is input, the rest stands still).
+    /// That state holds less energy than the start plus the pins' work by the kinetic
+    /// energy, so it always balances, and the next step starts from rest. Refusing the step
+    /// instead kept the start state, from which the next call failed the same way: an
+    /// outside fuzzer saw such cloths refused at every later step, frozen. (Leaving the pins
+    /// behind too made the next step's pin motion, and its failure, grow at every step.)
+    fn stop(&mut self, pins_on: bool, stats: StepStats) -> Result<StepStats, StepError> {
         self.restore_start(false);
         let counts = self.counts();
         let moving = monitor::level(&self.a, &counts, &self.settings)?;
         prefix_mut(self.a.v, self.n).fill(Vec3A::ZERO);
-        let at_rest = monitor::level(&self.a, &counts, &self.settings)?;
-        self.level = Some(at_rest);
+        let still = monitor::level(&self.a, &counts, &self.settings)?;
+        if pins_on {
+            step::contacts::place_pins(&mut self.a, &counts, 1.0)?;
+            self.refresh_frames(8);
+        }
+        self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
         Ok(StepStats {
             stopped: true,
-            energy_removed: (moving.energy - at_rest.energy) as f32,
+            energy_removed: (moving.energy - still.energy) as f32,
             ..stats
         })
     }
