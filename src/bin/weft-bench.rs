@@ -8,7 +8,7 @@
 //! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
 //! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
 //! it off alone. Speed is never quoted alone: every run also reports the steps the energy
-//! balance redid or refused, the energy it removed, and the worst edge strain.
+//! balance redid or held still, the energy it removed, and the worst edge strain.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -94,9 +94,9 @@ struct Run {
     cg_per_resolve: f64,
     converged: f64,
     world_bytes: usize,
-    /// Steps the energy balance redid, steps refused, energy it removed (J).
+    /// Steps the energy balance redid, steps it held still, energy it removed (J).
     redone: u32,
-    refused: u32,
+    stopped: u32,
     removed: f64,
     /// Largest |edge length / rest length − 1| over the timed steps, and in the last state
     /// (what a cloth that has come to rest keeps: peer engines' iterative solvers leave
@@ -191,7 +191,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
     let mut times = Vec::with_capacity(steps as usize);
     let (mut iterations, mut solves, mut first, mut substeps) = (0u64, 0u64, 0u64, 0u64);
     let mut converged = 0u32;
-    let (mut redone, mut refused, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
+    let (mut redone, mut stopped, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
     let mut final_strain = worst_edge_strain(&world);
     for _ in 0..steps {
         let t0 = Instant::now();
@@ -205,9 +205,9 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
                 substeps += s.substeps as u64;
                 converged += s.converged as u32;
                 redone += (s.redone > 0) as u32;
+                stopped += s.stopped as u32;
                 removed += f64::from(s.energy_removed);
             }
-            Err(weft::world::StepError::Unstable) => refused += 1,
             Err(e) => return Err(format!("{e:?}")),
         }
         final_strain = worst_edge_strain(&world);
@@ -224,7 +224,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         converged: converged as f64 / steps.max(1) as f64,
         world_bytes: bytes,
         redone,
-        refused,
+        stopped,
         removed,
         worst_strain,
         final_strain,
@@ -305,7 +305,7 @@ fn real_main(args: &Args) -> Result<(), String> {
                 "world_bytes": r.world_bytes,
                 "solver": args.solver,
                 "steps_redone": r.redone,
-                "steps_refused": r.refused,
+                "steps_stopped": r.stopped,
                 "energy_removed_j": r.removed,
                 "worst_edge_strain": r.worst_strain,
                 "final_edge_strain": r.final_strain,
@@ -328,8 +328,8 @@ fn real_main(args: &Args) -> Result<(), String> {
         println!("converged        {:.0}% of steps", r.converged * 100.0);
         println!("solver           {}", args.solver);
         println!(
-            "energy balance   {} steps redone, {} refused, {:.3e} J removed",
-            r.redone, r.refused, r.removed
+            "energy balance   {} steps redone, {} held still, {:.3e} J removed",
+            r.redone, r.stopped, r.removed
         );
         println!(
             "worst edge strain {:.4}% over the steps, {:.4}% at the end",
