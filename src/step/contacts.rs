@@ -861,14 +861,9 @@ pub(crate) fn resolve(
     // on the cloth from outside: the potential energy it changes is input to the energy
     // balance (measured, as it can be far from linear). A still collider's projection of a
     // vertex that entered during the substep is not input: a gain there is the step's own.
-    // Only those pushes are measured (`driven_push`), on trial positions in `a.w_r` (the PCG's
-    // scratch, which every solve writes before it reads, free once the substep's solves are
-    // done). Measuring the whole projection as soon as one push was driven credited the still
-    // colliders' projections too, and the balance then accepted steps that gained as much (an
-    // adversarial scene: 3.3e10 J from a still shell while a capsule touched one vertex).
     let driven = collide_on(c, st) && projection_is_driven(a, c, st, sub)?;
     let potential_before = if driven {
-        monitor::potential_at(a, c, st, live(a.x, n)?)?
+        monitor::potential(a, c, st)?
     } else {
         0.0
     };
@@ -882,21 +877,12 @@ pub(crate) fn resolve(
             .iter_mut()
             .zip(live_mut(a.v, n)?.iter_mut())
             .zip(live_mut(a.contact, n)?.iter_mut());
-        let trial = live_mut(a.w_r, n)?.iter_mut();
-        for ((((&pin, &mass), (&aq, &b)), ((xi, vi), contact)), pushed) in
-            held.zip(moving).zip(trial)
-        {
-            if driven {
-                *pushed = *xi;
-            }
+        for (((&pin, &mass), (&aq, &b)), ((xi, vi), contact)) in held.zip(moving) {
             if pins && pin != mesh::NONE {
                 continue;
             }
             let mut touched = false;
             let v_before = *vi;
-            // where it began the substep (x was just advanced by exactly h v; the pushes below
-            // move x)
-            let start = *xi - v_before * h;
             let mut vs_held = Vec3A::ZERO;
             // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
             // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a sliding
@@ -946,9 +932,6 @@ pub(crate) fn resolve(
                 let placed = sweep.placed(k, col, &mut spare);
                 let shape = &placed.after;
                 let vs = placed.surface_velocity(*xi, h);
-                if driven {
-                    *pushed += driven_push(placed, *xi, start, h, st.max_depenetration_speed);
-                }
                 let hit = collide::resolve(shape, vs, col.thickness, col.friction, xi, vi);
                 if hit && vs != Vec3A::ZERO {
                     vs_held = vs;
@@ -975,8 +958,7 @@ pub(crate) fn resolve(
         // negative input: counted, it let the balance demand that loss back from the rest of the
         // step (an outside fuzzer's 9×9 cloth inside oscillating colliders: a 378 J stretch
         // projected away, read as −378 J of input, and every later step refused).
-        let pushed = monitor::potential_at(a, c, st, live(a.w_r, n)?)?;
-        work += (pushed - potential_before).max(0.0);
+        work += (monitor::potential(a, c, st)? - potential_before).max(0.0);
     }
     Ok((contacts, work))
 }
@@ -1001,37 +983,6 @@ pub(crate) fn place_pins(a: &mut Arrays<'_>, c: &Counts, t: f32) -> Result<(), S
         };
     }
     Ok(())
-}
-
-/// The part of the push out of `placed` (what `collide::resolve` moves a vertex at `x` by)
-/// that is done from outside, as a displacement: the depth the collider's own motion over the
-/// substep added (how much deeper `x` is under the moved surface than under the surface at the
-/// substep's start), and the depth the vertex began the substep with (at `start`) beyond what
-/// its contact pushes out at the depenetration speed (and the slop `projection_is_driven`
-/// allows). That pushed-out part is not counted here: `constraint_work` counts it as the
-/// kinetic energy its impulse gives. The rest of the push undoes the vertex's own motion into
-/// the collider: the step's own doing, not input.
-fn driven_push(
-    placed: &Placed,
-    x: Vec3A,
-    start: Vec3A,
-    h: f32,
-    max_depenetration_speed: f32,
-) -> Vec3A {
-    let (col, t) = (placed.col, placed.col.thickness);
-    let prox = placed.after.proximity(x);
-    let push = t - prox.distance;
-    if push.is_nan() || push <= 0.0 {
-        return Vec3A::ZERO;
-    }
-    let moved = if col.previous != col.shape {
-        push - (t - placed.before.proximity(x).distance).max(0.0)
-    } else {
-        0.0
-    };
-    let begun =
-        t - placed.before.proximity(start).distance - (0.1 * t + h * max_depenetration_speed);
-    prox.normal * (moved.max(0.0) + begun.max(0.0)).min(push)
 }
 
 /// Every pin as `(vertex, previous target, target, free directions)`: the target moves from

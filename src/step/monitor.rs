@@ -52,17 +52,8 @@ pub(crate) fn shape_energy(
     c: &Counts,
     st: &Settings,
 ) -> Result<(f64, f64, f64), StepError> {
-    shape_energy_at(a, c, st, live(a.x, c.n)?)
-}
-
-/// [`shape_energy`] of the positions `x` (`c.n` of them) instead of the world's.
-fn shape_energy_at(
-    a: &Arrays<'_>,
-    c: &Counts,
-    st: &Settings,
-    x: &[Vec3A],
-) -> Result<(f64, f64, f64), StepError> {
     let eff = st.effects;
+    let x = live(a.x, c.n)?;
     let (elastic, elastic_noise) = membrane::elastic_energy_with_noise(
         live(a.triangles, c.nt)?,
         live(a.elements, c.nt)?,
@@ -101,17 +92,11 @@ pub(crate) fn level(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<Level, 
     })
 }
 
-/// Elastic + bending energy and the gravitational potential `−Σ m g·x` (J) of the positions
-/// `x` (`c.n` of them, the world's or a trial of them): what a change of positions alone
-/// changes.
-pub(crate) fn potential_at(
-    a: &Arrays<'_>,
-    c: &Counts,
-    st: &Settings,
-    x: &[Vec3A],
-) -> Result<f64, StepError> {
-    let (elastic, bending, _) = shape_energy_at(a, c, st, x)?;
-    Ok(elastic + bending + gravity_potential_at(a, c, st, x)?)
+/// Elastic + bending energy and the gravitational potential `−Σ m g·x` (J) of the current
+/// positions: what a change of positions alone changes.
+pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<f64, StepError> {
+    let (elastic, bending, _) = shape_energy(a, c, st)?;
+    Ok(elastic + bending + gravity_potential(a, c, st)?)
 }
 
 /// The gravitational potential `−Σ m g·x` (J), zero without gravity.
@@ -120,23 +105,13 @@ pub(crate) fn gravity_potential(
     c: &Counts,
     st: &Settings,
 ) -> Result<f64, StepError> {
-    gravity_potential_at(a, c, st, live(a.x, c.n)?)
-}
-
-/// [`gravity_potential`] of the positions `x` instead of the world's.
-fn gravity_potential_at(
-    a: &Arrays<'_>,
-    c: &Counts,
-    st: &Settings,
-    x: &[Vec3A],
-) -> Result<f64, StepError> {
     if st.effects & effects::GRAVITY == 0 {
         return Ok(0.0);
     }
     let g = Vec3A::from(st.gravity);
     Ok(-live(a.mass, c.n)?
         .iter()
-        .zip(x)
+        .zip(live(a.x, c.n)?)
         .map(|(&m, x)| f64::from(m) * f64::from(g.dot(*x)))
         .sum::<f64>())
 }
