@@ -1094,9 +1094,9 @@ impl<'a> World<'a> {
     fn stop(&mut self, pins_on: bool, stats: StepStats) -> Result<StepStats, StepError> {
         self.restore_start(false);
         let counts = self.counts();
-        let moving = monitor::level(&self.a, &counts, &self.settings)?;
-        prefix_mut(self.a.v, self.n).fill(Vec3A::ZERO);
-        let still = monitor::level(&self.a, &counts, &self.settings)?;
+        let v = prefix_mut(self.a.v, self.n);
+        let kinetic = monitor::kinetic(prefix(self.a.mass, self.n), v);
+        v.fill(Vec3A::ZERO);
         if pins_on {
             step::contacts::place_pins(&mut self.a, &counts, 1.0)?;
             self.refresh_frames(8);
@@ -1104,7 +1104,7 @@ impl<'a> World<'a> {
         self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
         Ok(StepStats {
             stopped: true,
-            energy_removed: (moving.energy - still.energy) as f32,
+            energy_removed: kinetic as f32,
             ..stats
         })
     }
