@@ -435,6 +435,17 @@ fn keep_listed<T>(items: Vec<T>, list: &str) -> Vec<T> {
         .collect()
 }
 
+/// Overwrites `field` with the environment variable `key`, parsed, when it is set (the
+/// debugging overrides of a scene).
+fn set_from_env<T: std::str::FromStr>(key: &str, field: &mut T)
+where
+    T::Err: std::fmt::Debug,
+{
+    if let Ok(v) = std::env::var(key) {
+        *field = v.parse().unwrap();
+    }
+}
+
 fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     let mut r = Rng::new(seed);
     let quiet = r.chance(0.35);
@@ -773,37 +784,19 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     let mut events = events;
     let mut kick0 = kick0;
     let mut mats = mats;
-    if let Some(v) = env("MAXIT") {
-        settings.max_iterations = v.parse().unwrap();
-    }
-    if let Some(v) = env("TOL") {
-        settings.tolerance = v.parse().unwrap();
-    }
-    if let Some(v) = env("SUB") {
-        settings.substeps = v.parse().unwrap();
-    }
-    if let Some(v) = env("DT") {
-        settings.time_step = v.parse().unwrap();
-    }
-    if let Some(v) = env("EFF") {
-        settings.effects = v.parse().unwrap();
-    }
+    set_from_env("MAXIT", &mut settings.max_iterations);
+    set_from_env("TOL", &mut settings.tolerance);
+    set_from_env("SUB", &mut settings.substeps);
+    set_from_env("DT", &mut settings.time_step);
+    set_from_env("EFF", &mut settings.effects);
     if let Some(v) = env("DAMP") {
         settings.damping_mass = v.parse().unwrap();
         settings.damping_stiffness = 0.0;
     }
-    if let Some(v) = env("DAMPK") {
-        settings.damping_stiffness = v.parse().unwrap();
-    }
-    if let Some(v) = env("DAMPM") {
-        settings.damping_mass = v.parse().unwrap();
-    }
-    if let Some(v) = env("DEPEN") {
-        settings.max_depenetration_speed = v.parse().unwrap();
-    }
-    if let Some(v) = env("DRAG") {
-        settings.drag = v.parse().unwrap();
-    }
+    set_from_env("DAMPK", &mut settings.damping_stiffness);
+    set_from_env("DAMPM", &mut settings.damping_mass);
+    set_from_env("DEPEN", &mut settings.max_depenetration_speed);
+    set_from_env("DRAG", &mut settings.drag);
     if env("DEFAULTS").is_some() {
         settings = Settings {
             effects: settings.effects,
@@ -819,9 +812,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     if let Some(v) = env("NOEV") {
         events = keep_listed(events, &v);
     }
-    if let Some(v) = env("KICK0") {
-        kick0 = v.parse().unwrap();
-    }
+    set_from_env("KICK0", &mut kick0);
     let mut solver = solver;
     match env("SOLVER").as_deref() {
         Some("jacobi") => solver = Solver::BlockJacobi,
