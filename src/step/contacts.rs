@@ -95,6 +95,9 @@ fn pins_on(c: &Counts, st: &Settings) -> bool {
 #[derive(Clone, Copy, Default)]
 struct Held {
     axes: [Vec3A; 3],
+    /// The contact normal each axis was made from (before Gram–Schmidt): see
+    /// [`Held::multipliers`].
+    made_from: [Vec3A; 3],
     /// Per axis: the target velocity, the same without drawing toward a surface (`firm`), and
     /// the surface's velocity (see [`Held::add`]).
     values: [Vec3A; 3],
@@ -105,8 +108,9 @@ struct Held {
 
 impl Held {
     /// Holds `n · v = target` (`n` unit; `surface`: the holding surface's velocity along `n`;
-    /// a `target` below it draws the vertex toward the surface).
-    fn add(&mut self, n: Vec3A, target: f32, surface: f32) {
+    /// a `target` below it draws the vertex toward the surface). Returns the axis that holds
+    /// it (its own, or the held one it is nearly parallel to).
+    fn add(&mut self, n: Vec3A, target: f32, surface: f32) -> Option<usize> {
         self.contacts += 1;
         let (mut rest, mut rhs) = (n, Vec3A::new(target, target.max(surface), surface));
         let mut most_aligned = (0.0f32, 0usize);
@@ -124,22 +128,47 @@ impl Held {
         // beyond the held velocities (more outward motion) goes on the held axis it is closest
         // to, so the stricter of two nearly parallel contacts wins.
         if len > 0.2 {
-            if let (Some(axis), Some(values)) = (
+            if let (Some(axis), Some(values), Some(made_from)) = (
                 self.axes.get_mut(self.count),
                 self.values.get_mut(self.count),
+                self.made_from.get_mut(self.count),
             ) {
-                (*axis, *values) = (rest / len, rhs / len);
+                (*axis, *values, *made_from) = (rest / len, rhs / len, n);
                 self.count += 1;
-                return;
+                return Some(self.count - 1);
             }
         }
         let (along, k) = most_aligned;
-        if let (Some(values), true) = (self.values.get_mut(k), along != 0.0) {
-            let raise = |r: f32| r.max(0.0) / along;
-            let target = raise(rhs.x);
-            let surface = if target != 0.0 { rhs.z / along } else { 0.0 };
-            *values += Vec3A::new(target, raise(rhs.y), surface);
+        let values = self.values.get_mut(k).filter(|_| along != 0.0)?;
+        let raise = |r: f32| r.max(0.0) / along;
+        let target = raise(rhs.x);
+        let surface = if target != 0.0 { rhs.z / along } else { 0.0 };
+        *values += Vec3A::new(target, raise(rhs.y), surface);
+        Some(k)
+    }
+
+    /// The contact impulse `j` (in the held span) as a sum over the axes' contact normals,
+    /// `j = Σ λ_k n_k` (`n_k` = `made_from[k]`): `λ_k < 0` is a contact that pulls. Back
+    /// substitution: `n_m` lies in the span of the axes up to `m`, so `a_k · j = λ_k a_k·n_k +
+    /// Σ_{m>k} λ_m a_k·n_m`, and `a_k·n_k` is the length Gram–Schmidt kept (> 0.2).
+    fn multipliers(&self, j: Vec3A) -> [f32; 3] {
+        let mut lambda = [0.0f32; 3];
+        for k in (0..self.count).rev() {
+            let (Some(&axis), Some(&own)) = (self.axes.get(k), self.made_from.get(k)) else {
+                continue;
+            };
+            let later = self
+                .made_from
+                .iter()
+                .zip(&lambda)
+                .take(self.count)
+                .skip(k + 1);
+            let along = later.fold(axis.dot(j), |r, (&n, &l)| r - axis.dot(n) * l);
+            if let Some(l) = lambda.get_mut(k) {
+                *l = along / axis.dot(own);
+            }
         }
+        lambda
     }
 
     /// The held axes with the velocity each prescribes and its surface's velocity. A vertex
@@ -181,6 +210,48 @@ impl Held {
 struct Hold {
     held: Held,
     primary: Option<(usize, Vec3A)>,
+    /// Contacts found so far, held or dropped: the next one's bit in a dropped set
+    /// (`Arrays::contact_dropped`; from the 33rd on a contact has none and is never dropped).
+    found: u32,
+    /// Per held axis, the contacts it holds (bits, as in a dropped set).
+    on_axis: [u32; 3],
+}
+
+impl Hold {
+    /// Holds contact `t`, unless it is in `dropped`; returns whether it holds.
+    fn add(&mut self, t: &Touch, dropped: u32) -> bool {
+        let bit = 1u32.checked_shl(self.found).unwrap_or(0);
+        self.found = self.found.saturating_add(1);
+        if dropped & bit != 0 {
+            return false;
+        }
+        let axis = self.held.add(t.normal, t.target, t.vs.dot(t.normal));
+        if let Some(on_axis) = axis.and_then(|k| self.on_axis.get_mut(k)) {
+            *on_axis |= bit;
+        }
+        true
+    }
+
+    /// The contacts to let go (bits, as in a dropped set) when `j` is the impulse that holds
+    /// the vertex: those of the axis that pulls hardest (its multiplier most negative,
+    /// [`Held::multipliers`]), or none. One axis per solve, as an active-set method drops one
+    /// constraint at a time: a vertex held along three axes by a small sphere's edge and face
+    /// contacts splits a sideways pull into a pull on two of them, and letting go of both at
+    /// once freed it altogether in the next solve while its edge's other corner stayed held:
+    /// the edge pivoted 4 mm into the sphere (1 mm one axis at a time).
+    fn pulling(&self, j: Vec3A) -> u32 {
+        let lambda = self.held.multipliers(j);
+        lambda
+            .iter()
+            .zip(&self.on_axis)
+            .take(self.held.count)
+            .filter(|(&l, _)| l < 0.0)
+            .fold(
+                (0.0f32, 0),
+                |most, (&l, &bits)| if l < most.0 { (l, bits) } else { most },
+            )
+            .1
+    }
 }
 
 /// The substep's view of the contacts: the colliders, the cloth's state at the substep's start
@@ -351,20 +422,22 @@ impl Scene<'_> {
         self.touch(placed, xi, vi, prox, true)
     }
 
-    /// Everything vertex `i` touches: each collider at the vertex; and, for a sphere or a
-    /// capsule the vertex does not touch, the interior of each edge and face around it long
-    /// enough to cut into it (a thin collider between vertices). Such a contact holds the
-    /// corners that do not touch the collider themselves along its normal, to the contact
-    /// point's target velocity: conservative (it also stops the edge from tilting along the
-    /// normal), but what the per-vertex filter can hold, and the contact point then moves as
-    /// required. A corner that touches keeps its own contact only (adding the edge's normals,
-    /// nearly parallel to its own, put energy into cloth swept by a fast sphere). Edge and face
-    /// contacts are frictionless.
-    fn hold(&self, i: usize, strict: bool) -> Hold {
+    /// Everything vertex `i` touches, but the contacts in `dropped` (let go in this substep,
+    /// [`release`]): each collider at the vertex; and, for a sphere or a capsule, the interior
+    /// of each edge and face around it long enough to cut into it (a thin collider between
+    /// vertices). Such a contact holds every corner along its normal, to the contact point's
+    /// target velocity: conservative (it also stops the edge from tilting along the normal),
+    /// but what the per-vertex filter can hold, and the contact point then moves as required.
+    /// A corner that touches the collider itself holds its edges' contacts too: with its own
+    /// contact alone it slid along the surface while its edge's other end was held, and the
+    /// edge swung into the collider (a 9×9 cloth slid off a 3 cm sphere with an edge 17 mm
+    /// inside). Like every contact, they hold only while they push ([`release`]). Edge and
+    /// face contacts are frictionless.
+    fn hold(&self, i: usize, strict: bool, dropped: u32) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
-        // Computed at the first sphere or capsule the vertex does not touch, once per vertex
-        // (planes and shells have no edge or face tests).
+        // Computed at the first sphere or capsule with edge and face tests, once per vertex
+        // (planes and shells have none).
         let mut reach = None;
         let mut spare = None;
         for (k, col) in self.sweep.colliders.iter().enumerate() {
@@ -376,12 +449,16 @@ impl Scene<'_> {
                     // overruled at once. It is at the surface: no edge or face tests either.
                     continue;
                 }
-                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
-                if t.depth < deepest {
+                if hold.add(&t, dropped) && t.depth < deepest {
                     deepest = t.depth;
                     hold.primary = Some((k, t.vs));
                 }
-                continue;
+                if t.depth < -0.1 * col.thickness {
+                    // Inside: its own contact pushes it out. An edge's contact beside it, which
+                    // stops its corners along another normal, asks for a velocity beyond the
+                    // push (measured: 7.3 m/s out of a push at 5).
+                    continue;
+                }
             }
             let Some(cutting) = placed
                 .before
@@ -393,10 +470,10 @@ impl Scene<'_> {
             };
             let clearance = self.clearance(placed, i);
             for t in self.edge_touches(placed, i, clearance, cutting) {
-                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
+                hold.add(&t, dropped);
             }
             for t in self.face_touches(placed, i, clearance, cutting) {
-                hold.held.add(t.normal, t.target, t.vs.dot(t.normal));
+                hold.add(&t, dropped);
             }
         }
         hold
@@ -611,7 +688,7 @@ fn hold_all(
     for (i, ((contact, filter_i), (dv_i, &vi))) in vertices.enumerate() {
         let before = *contact;
         let strict = has_flag(before, LET_GO);
-        let hold = scene.hold(i, strict);
+        let hold = scene.hold(i, strict, 0);
         // on the same collider it keeps sticking (or sliding): `resolve` decides again from
         // the solve's impulse; a new contact starts sliding
         let mut state = match hold.primary {
@@ -678,6 +755,8 @@ pub(crate) fn constrain(
         let held = hold_all(a, c, st, sub, filter, dv, contact);
         (a.filter, a.dv, a.contact) = (filter, dv, contact);
         constrained = held?;
+        // a new substep: every contact holds until it pulls
+        live_mut(a.contact_dropped, n)?.fill(0);
     }
     if pins {
         let (x, v) = (live(a.x, n)?, live(a.v, n)?);
@@ -704,11 +783,11 @@ pub(crate) fn constrain(
 }
 
 /// A contact only pushes (Baraff & Witkin §5.3 release a constraint whose force pulls): after a
-/// solve, a vertex held by its own contact alone whose impulse along the contact normal,
-/// `n · (A Δv − rhs)`, pulls it toward the surface is let go: its filter is freed, and the
-/// caller solves again from the current `Δv` (`a.w_q` must hold `A Δv`). From the next substep
-/// on it is held only where its own motion reaches a surface ([`LET_GO`]). Returns how many
-/// were let go.
+/// solve, a contact whose part of the impulse `A Δv − rhs` pulls its vertex toward the surface
+/// is let go, and the caller solves again from the current `Δv` (`a.w_q` must hold `A Δv`). A
+/// vertex no contact holds any more is free, and from the next substep on it is held only
+/// where its own motion reaches a surface ([`LET_GO`]). Returns how many vertices changed
+/// (listed in `a.w_s`).
 ///
 /// Why: a held vertex moves along the normal exactly as its contact prescribes: the surface's
 /// velocity, or toward the surface within the slop. Where the membrane would lift it faster,
@@ -721,46 +800,132 @@ pub(crate) fn constrain(
 /// solve) was measured too: 11 % faster at 81×81, but a fine cloth (1.25 mm edges, 1 mm
 /// thickness) then churned: hundreds of vertices per step held, let go, fallen in and
 /// projected out, still moving at 0.29 m/s after 1 s where two substeps rest (5e-5 m/s).
-/// Vertices held by several contacts (grooves, the thin colliders' edge and face contacts)
-/// and pinned ones stay held.
+/// Held for good, the thin colliders' edge and face contacts froze the corners that touch a
+/// small sphere themselves (three of them hold every direction).
 pub(crate) fn release(
     a: &mut Arrays<'_>,
     c: &Counts,
     st: &Settings,
     sub: Substep,
 ) -> Result<u32, StepError> {
-    let n = c.n;
     if !collide_on(c, st) {
         return Ok(0);
     }
+    // the arrays it changes are lent out of the world's while the scene reads the rest
+    let mut lent = Released {
+        contact: core::mem::take(&mut a.contact),
+        dropped: core::mem::take(&mut a.contact_dropped),
+        filter: core::mem::take(&mut a.filter),
+        dv: core::mem::take(&mut a.dv),
+        list: core::mem::take(&mut a.w_s),
+    };
+    let released = release_pulling(a, c, st, sub, &mut lent);
+    let Released {
+        contact,
+        dropped,
+        filter,
+        dv,
+        list,
+    } = lent;
+    (a.contact, a.contact_dropped, a.filter, a.dv, a.w_s) = (contact, dropped, filter, dv, list);
+    released
+}
+
+/// What [`release`] changes, lent out of the world's arrays.
+struct Released<'a> {
+    contact: &'a mut [u32],
+    dropped: &'a mut [u32],
+    filter: &'a mut [Mat3A],
+    dv: &'a mut [Vec3A],
+    /// `w_s`, the PCG's scratch, which no one reads between two solves: the vertices let go,
+    /// listed for the next solve (`system::Resume`).
+    list: &'a mut [Vec3A],
+}
+
+/// [`release`] on the lent arrays. A vertex held by its own contact alone is let go when that
+/// pulls (`ALONE`: its normal is the collider's at the vertex). One held by several contacts
+/// (grooves, the thin colliders' edge and face contacts) lets go of those that pull: its
+/// impulse is split into the contacts' normals ([`Hold::pulling`]), the pulling ones join its
+/// dropped set, and the rest hold it, their filter and velocities set again (the free
+/// directions keep the solve's `Δv`). Pinned vertices and sticking ones (friction decides
+/// there, in [`resolve`]) stay held.
+fn release_pulling(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+    lent: &mut Released<'_>,
+) -> Result<u32, StepError> {
+    let n = c.n;
     let pins = pins_on(c, st);
     let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
+    // the full scene (its edge and face tests) only where a vertex has several contacts
+    let mut several = None;
     let mut released = 0;
-    // The vertices let go, listed for the next solve (`system::Resume`) in `w_s`, the PCG's
-    // scratch, which no one reads between two solves.
-    let list: &mut [u32] = bytemuck::cast_slice_mut(live_mut(a.w_s, n)?);
-    let vertices = live_mut(a.contact, n)?
+    let list: &mut [u32] = bytemuck::cast_slice_mut(live_mut(lent.list, n)?);
+    let vertices = live_mut(lent.contact, n)?
         .iter_mut()
-        .zip(live_mut(a.filter, n)?.iter_mut())
-        .zip(live(a.pin_of, n)?.iter().zip(live(a.x, n)?))
+        .zip(live_mut(lent.dropped, n)?.iter_mut())
+        .zip(live_mut(lent.filter, n)?.iter_mut())
+        .zip(live_mut(lent.dv, n)?.iter_mut())
+        .zip(
+            live(a.pin_of, n)?
+                .iter()
+                .zip(live(a.x, n)?.iter().zip(live(a.v, n)?)),
+        )
         .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
-    for (i, (((contact, filter), (&pin, &xi)), (&aq, &b))) in vertices.enumerate() {
-        if !has_flag(*contact, ALONE) || (pins && pin != mesh::NONE) {
+    for (i, (((((contact, dropped), filter), dv), (&pin, (&xi, &vi))), (&aq, &b))) in
+        vertices.enumerate()
+    {
+        if *filter == Mat3A::IDENTITY || has_flag(*contact, STICK) || (pins && pin != mesh::NONE) {
             continue;
         }
-        let k = collider_of(*contact);
-        let Some(col) = sweep.colliders.get(k) else {
-            continue;
+        let kept = if has_flag(*contact, ALONE) {
+            let k = collider_of(*contact);
+            let Some(col) = sweep.colliders.get(k) else {
+                continue;
+            };
+            let normal = sweep.placed(k, col, &mut None).before.proximity(xi).normal;
+            if (aq - b).dot(normal) >= 0.0 {
+                continue;
+            }
+            None
+        } else {
+            let scene = match &mut several {
+                Some(scene) => scene,
+                None => several.insert(scene(a, c, st, sub)?),
+            };
+            let strict = has_flag(*contact, STRICT);
+            let hold = scene.hold(i, strict, *dropped);
+            let pulling = hold.pulling((Mat3A::IDENTITY - *filter) * (aq - b));
+            if pulling == 0 {
+                continue;
+            }
+            *dropped |= pulling;
+            Some(scene.hold(i, strict, *dropped)).filter(|kept| kept.held.count > 0)
         };
-        let normal = sweep.placed(k, col, &mut None).before.proximity(xi).normal;
-        if (aq - b).dot(normal) < 0.0 {
-            *contact = NO_COLLIDER | LET_GO;
-            *filter = Mat3A::IDENTITY;
-            *list
-                .get_mut(released as usize)
-                .ok_or(StepError::SolverBreakdown)? = i as u32;
-            released += 1;
+        match kept {
+            Some(kept) => {
+                let free = kept.held.free();
+                *filter = free;
+                *dv = kept.held.velocity(vi + free * *dv) - vi;
+                // friction acts through the deepest vertex contact still held, if any
+                let flags = *contact & FLAGS;
+                *contact = match kept.primary {
+                    Some((k, _)) => k as u32 | flags,
+                    None if flags == 0 => mesh::NONE,
+                    None => NO_COLLIDER | flags,
+                };
+            }
+            None => {
+                *contact = NO_COLLIDER | LET_GO;
+                *filter = Mat3A::IDENTITY;
+            }
         }
+        *list
+            .get_mut(released as usize)
+            .ok_or(StepError::SolverBreakdown)? = i as u32;
+        released += 1;
     }
     Ok(released)
 }
@@ -808,17 +973,20 @@ pub(crate) fn constraint_work(
         };
         let vertices = live(a.contact, n)?
             .iter()
+            .zip(live(a.contact_dropped, n)?)
             .zip(live(a.pin_of, n)?)
             .zip(live(a.filter, n)?)
             .zip(w_q.iter().zip(rhs))
             .zip(live(a.v, n)?.iter().zip(live(a.dv, n)?));
-        for (i, ((((&contact, &pin), &filter), (&aq, &b)), (&v, &dv))) in vertices.enumerate() {
+        for (i, (((((&contact, &dropped), &pin), &filter), (&aq, &b)), (&v, &dv))) in
+            vertices.enumerate()
+        {
             if pin != mesh::NONE || filter == Mat3A::IDENTITY {
                 continue;
             }
             let surface = match &scene {
                 Some(scene) => {
-                    let hold = scene.hold(i, has_flag(contact, STRICT));
+                    let hold = scene.hold(i, has_flag(contact, STRICT), dropped);
                     let stuck = match hold.primary {
                         Some((_, vs)) if contact & STICK != 0 => vs,
                         _ => Vec3A::ZERO,
@@ -1040,6 +1208,60 @@ fn projection_is_driven(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An impulse split into the normals that hold a vertex: exact for one, two and three
+    /// independent normals; a nearly parallel contact rides on its axis; the contacts to let go
+    /// are those of the axis that pulls hardest.
+    #[test]
+    fn an_impulse_splits_into_its_contacts_normals() {
+        // a contact with a still surface, at rest on it
+        let still = |normal| Touch {
+            normal,
+            reaches: true,
+            depth: 0.0,
+            target: 0.0,
+            vs: Vec3A::ZERO,
+        };
+        let normals = [
+            Vec3A::Z,
+            Vec3A::new(0.6, 0.0, 0.8),
+            Vec3A::new(0.0, 0.6, 0.8),
+        ];
+        let lambda = [2.0f32, -0.5, 0.25];
+        for count in 1..=3 {
+            let mut hold = Hold::default();
+            for &n in normals.iter().take(count) {
+                assert!(hold.add(&still(n), 0));
+            }
+            let j = normals
+                .iter()
+                .zip(&lambda)
+                .take(count)
+                .fold(Vec3A::ZERO, |j, (&n, &l)| j + n * l);
+            let split = hold.held.multipliers(j);
+            for k in 0..count {
+                assert!((split[k] - lambda[k]).abs() < 1e-5, "{count}: {split:?}");
+            }
+            let pulling = hold.pulling(j);
+            assert_eq!(pulling, if count >= 2 { 0b10 } else { 0 }, "{count}");
+            // dropped, the contact holds nothing and keeps its bit: the others' are unchanged
+            let mut kept = Hold::default();
+            for &n in normals.iter().take(count) {
+                kept.add(&still(n), pulling);
+            }
+            assert_eq!(kept.held.count, count - pulling.count_ones() as usize);
+            assert_eq!(kept.found, count as u32);
+        }
+        // a contact 5° off the first rides on its axis: both go together
+        let mut hold = Hold::default();
+        let tilted = Vec3A::new(0.087, 0.0, 0.996).normalize();
+        for n in [Vec3A::Z, tilted] {
+            hold.add(&still(n), 0);
+        }
+        assert_eq!((hold.held.count, hold.on_axis[0]), (1, 0b11));
+        assert_eq!(hold.pulling(-Vec3A::Z), 0b11);
+        assert_eq!(hold.pulling(Vec3A::Z), 0);
+    }
 
     /// One normal leaves its plane free, two independent ones the line along their cross
     /// product, three nothing; the velocity meets every target at once; a nearly parallel

@@ -194,6 +194,9 @@ arrays! { cap;
     /// starts from it again).
     contact: u32 = [cap.v(); mesh::NONE],
     contact_start: u32 = [cap.v(); mesh::NONE],
+    /// The contacts of each vertex let go in this substep because they pulled, by their order
+    /// in the vertex's contact tests (bit `k`: the `k`-th; see `step::contacts::release`).
+    contact_dropped: u32 = [cap.v(); 0],
     /// Pin index of each vertex, or `mesh::NONE`.
     pin_of: u32 = [cap.v(); mesh::NONE],
     pin_vertex: u32 = [cap.p(); 0],
