@@ -428,11 +428,11 @@ impl Scene<'_> {
     /// vertices). Such a contact holds every corner along its normal, to the contact point's
     /// target velocity: conservative (it also stops the edge from tilting along the normal),
     /// but what the per-vertex filter can hold, and the contact point then moves as required.
-    /// A corner that touches the collider itself holds its edges' contacts too: with its own
-    /// contact alone it slid along the surface while its edge's other end was held, and the
-    /// edge swung into the collider (a 9×9 cloth slid off a 3 cm sphere with an edge 17 mm
-    /// inside). Like every contact, they hold only while they push ([`release`]). Edge and
-    /// face contacts are frictionless.
+    /// A corner that touches the collider itself holds the contacts of its edges whose other
+    /// corner does not: with its own contact alone it slid along the surface while the edge's
+    /// other end was held, and the edge swung into the collider (a 9×9 cloth slid off a 3 cm
+    /// sphere with an edge 17 mm inside). Like every contact, they hold only while they push
+    /// ([`release`]). Edge and face contacts are frictionless.
     fn hold(&self, i: usize, strict: bool, dropped: u32) -> Hold {
         let mut hold = Hold::default();
         let mut deepest = f32::INFINITY;
@@ -442,14 +442,15 @@ impl Scene<'_> {
         let mut spare = None;
         for (k, col) in self.sweep.colliders.iter().enumerate() {
             let placed = self.sweep.placed(k, col, &mut spare);
-            if let Some(t) = self.vertex_touch(placed, i) {
+            let touches = self.vertex_touch(placed, i);
+            if let Some(t) = &touches {
                 if strict && !t.reaches {
                     // Let go ([`LET_GO`]): held again only where its own motion reaches the
                     // surface, not by the slop, so the membrane that lifted it is not
                     // overruled at once. It is at the surface: no edge or face tests either.
                     continue;
                 }
-                if hold.add(&t, dropped) && t.depth < deepest {
+                if hold.add(t, dropped) && t.depth < deepest {
                     deepest = t.depth;
                     hold.primary = Some((k, t.vs));
                 }
@@ -469,7 +470,7 @@ impl Scene<'_> {
                 continue;
             };
             let clearance = self.clearance(placed, i);
-            for t in self.edge_touches(placed, i, clearance, cutting) {
+            for t in self.edge_touches(placed, i, touches.is_some(), clearance, cutting) {
                 hold.add(&t, dropped);
             }
             for t in self.face_touches(placed, i, clearance, cutting) {
@@ -524,6 +525,7 @@ impl Scene<'_> {
         &'a self,
         placed: &'a Placed<'a>,
         i: usize,
+        touches: bool,
         clearance: f32,
         cutting: f32,
     ) -> impl Iterator<Item = Touch> + 'a {
@@ -543,8 +545,15 @@ impl Scene<'_> {
                 return None;
             }
             let (s, prox) = placed.before.segment_proximity(xi, xj)?;
-            // a corner is nearest: the vertex contact's (vertex `i` does not touch `col`)
+            // a corner is nearest: the vertex contact's
             if s <= 0.0 || s >= 1.0 {
+                return None;
+            }
+            // Both corners touching `col` hold the edge by their own contacts (as a face with
+            // a second corner touching, below); only an edge held at its far corner alone
+            // swings in as a touching corner slides. Held at both, such edges caught the cloth
+            // on a sphere moving through it at 50 m/s and carried it 5 m.
+            if touches && self.vertex_touch(placed, j).is_some() {
                 return None;
             }
             self.touch(placed, xi.lerp(xj, s), vi.lerp(vj, s), prox, false)
