@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
 
-const COLUMNS: [&str; 13] = [
+const COLUMNS: [&str; 14] = [
     "scene",
     "cell",
     "material",
@@ -18,6 +18,7 @@ const COLUMNS: [&str; 13] = [
     "localize_ms",
     "err_mean",
     "err_max",
+    "steps_held",
 ];
 
 #[test]
@@ -54,6 +55,18 @@ fn tiny_study_homogenized_beats_averaged_across_the_stripes() {
         r[c].parse()
             .unwrap_or_else(|_| panic!("{c} = {} is not a number", r[c]))
     };
+    // every run that completed counts the steps the energy balance held still (its last
+    // resort since it no longer refuses a step for its energy): a count, "-" only for a run
+    // that did not complete
+    for r in &rows {
+        if r["status"] == "ok" {
+            assert!(
+                r["steps_held"].parse::<usize>().is_ok(),
+                "steps_held = {} is not a count in {r:?}",
+                r["steps_held"]
+            );
+        }
+    }
 
     // the fine reference: error 0 by definition, and it ran
     let fine: Vec<_> = rows.iter().filter(|r| r["material"] == "fine").collect();

@@ -308,6 +308,9 @@ pub struct Row {
     pub sheet_m: f64,
     /// Largest vertex speed at the end (m/s): how close to rest a static scene got.
     pub max_speed: f64,
+    /// Steps the energy balance held the cloth still (its last resort, `StepStats::stopped`:
+    /// positions kept, velocities zeroed); `None` when the run did not complete.
+    pub steps_held: Option<usize>,
     pub status: String,
 }
 
@@ -318,7 +321,13 @@ struct SimOut {
     /// CG iterations summed over the accepted steps.
     iterations: u64,
     max_speed: f64,
-    /// Steps the world refused (lenient runs only) and the first refusal.
+    /// Steps the energy balance held the cloth still (`StepStats::stopped`): the step was
+    /// taken, but its positions are those of its start and its velocities zero.
+    held: usize,
+    /// Steps the world refused (lenient runs only) and the first refusal. The energy balance
+    /// refuses a step only when it is not a number (`StepError::Unstable`); a step that gains
+    /// energy is held still instead (`held`). The other refusals are the step's other errors
+    /// (non-finite state, solver breakdown).
     refused: usize,
     first_refusal: Option<String>,
 }
@@ -340,6 +349,7 @@ fn simulate(
 
 /// [`simulate`]; `lenient`: a step the world refuses (it keeps its state) is counted in
 /// `SimOut::refused` and timed like the others instead of ending the run (for timing only).
+/// Steps held still are counted in `SimOut::held` in every run.
 #[allow(clippy::too_many_arguments)]
 fn simulate_with(
     sheet: &Sheet,
@@ -365,7 +375,7 @@ fn simulate_with(
     }
     let mut step_ms = Vec::with_capacity(steps);
     let mut iterations = 0u64;
-    let (mut refused, mut first_refusal) = (0usize, None);
+    let (mut held, mut refused, mut first_refusal) = (0usize, 0usize, None);
     for step in 0..steps {
         if step == 0 || scene.pins_move(step) {
             for &p in &pinned {
@@ -379,7 +389,10 @@ fn simulate_with(
         let result = world.step();
         step_ms.push(t.elapsed().as_secs_f64() * 1e3);
         match result {
-            Ok(stats) => iterations += u64::from(stats.iterations),
+            Ok(stats) => {
+                iterations += u64::from(stats.iterations);
+                held += usize::from(stats.stopped);
+            }
             Err(e) if lenient => {
                 refused += 1;
                 if first_refusal.is_none() {
@@ -400,6 +413,7 @@ fn simulate_with(
         step_ms,
         iterations,
         max_speed,
+        held,
         refused,
         first_refusal,
     })
@@ -698,6 +712,7 @@ fn run_case(
         coarse_vertices: None,
         sheet_m: size,
         max_speed: f64::NAN,
+        steps_held: None,
         status: "ok".into(),
     };
     let mut rows = Vec::new();
@@ -744,6 +759,7 @@ fn run_case(
         err_normal_deg: 0.0,
         cg_iters: out.iterations as f64 / steps as f64,
         max_speed: out.max_speed,
+        steps_held: Some(out.held),
         ..row("fine", &reference_knobs)
     });
     // The fine sheet with the runtime's own CG settings: what the fine simulation would cost
@@ -771,6 +787,7 @@ fn run_case(
                 fine_row.err_normal_deg = normal_error(&nrm, &reference_normals);
                 fine_row.cg_iters = o.iterations as f64 / steps as f64;
                 fine_row.max_speed = o.max_speed;
+                fine_row.steps_held = Some(o.held);
             }
             Err(e) => fine_row.status = format!("failed: {e}"),
         }
@@ -865,6 +882,7 @@ fn run_case(
                         ms_per_step: median(&o.step_ms),
                         cg_iters: o.iterations as f64 / steps as f64,
                         max_speed: o.max_speed,
+                        steps_held: Some(o.held),
                         ..base.clone()
                     };
                     if let Some(e) = failed {
@@ -957,6 +975,10 @@ pub struct BenchRun {
     pub solver: Solver,
     /// CG iterations per accepted step.
     pub iters: f64,
+    /// Steps held still by the energy balance (`StepStats::stopped`); timed like the others.
+    pub held: usize,
+    /// Steps refused (only for an energy balance that is not a number, `StepError::Unstable`,
+    /// or another step error); timed like the others.
     pub refused: usize,
     pub first_refusal: Option<String>,
 }
@@ -971,19 +993,23 @@ impl BenchRun {
             substeps: knobs.substeps,
             solver: knobs.solver,
             iters: o.iterations as f64 / accepted as f64,
+            held: o.held,
             refused: o.refused,
             first_refusal: o.first_refusal.clone(),
         }
     }
+    /// `timing only; N of M steps held still` (always: a count of 0 says the run was checked),
+    /// then the refusals if any.
     pub fn status(&self) -> String {
-        match &self.first_refusal {
-            None => "timing only".into(),
-            Some(e) => format!(
-                "timing only; {} of {} steps refused (first: {e})",
-                self.refused,
-                self.ms.len()
-            ),
+        let mut s = format!(
+            "timing only; {} of {} steps held still",
+            self.held,
+            self.ms.len()
+        );
+        if let Some(e) = &self.first_refusal {
+            s += &format!("; {} refused (first: {e})", self.refused);
         }
+        s
     }
 }
 
@@ -1075,6 +1101,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
         step_ms: coarse_runs.iter().flat_map(|o| o.step_ms.clone()).collect(),
         iterations: coarse_runs.iter().map(|o| o.iterations).sum(),
         max_speed: 0.0,
+        held: coarse_runs.iter().map(|o| o.held).sum(),
         refused: 0,
         first_refusal: None,
     };
@@ -1103,6 +1130,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
         coarse_vertices: None,
         sheet_m: fine.width,
         max_speed: f64::NAN,
+        steps_held: Some(run.held),
         status: run.status(),
     };
     let mut rows = vec![row("fine", &fine_run)];

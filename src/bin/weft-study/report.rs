@@ -13,7 +13,7 @@ use crate::scenes::Kind;
 use crate::upsample::Mode;
 use crate::{median, BenchOut, Knobs, Picture, Row, CELLS, REFERENCE_MAX_ITER};
 
-pub const CSV_COLUMNS: [&str; 25] = [
+pub const CSV_COLUMNS: [&str; 26] = [
     "scene",
     "cell",
     "material",
@@ -38,6 +38,7 @@ pub const CSV_COLUMNS: [&str; 25] = [
     "coarse_vertices",
     "sheet_m",
     "max_speed",
+    "steps_held",
     "status",
 ];
 
@@ -102,6 +103,7 @@ impl Row {
             opt(self.coarse_vertices),
             format!("{}", self.sheet_m),
             num(self.max_speed),
+            opt(self.steps_held),
             self.status.replace(',', ";"),
         ]
         .join(",")
@@ -503,7 +505,10 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         let _ = writeln!(
             md,
             "Drape scene (1/120 s steps). Medians over the timed steps; one core. A step the \
-             world refuses (energy monitor) is timed like the others.\n"
+             energy balance holds still (its last resort for a step that gains energy: \
+             positions kept, velocities zeroed) is timed like the others and counted in the \
+             status; so is a refused step (the balance refuses only when it is not a number, \
+             `Unstable`).\n"
         );
         let _ = writeln!(
             md,
@@ -1023,6 +1028,7 @@ mod tests {
             coarse_vertices: Some(9),
             sheet_m: 0.2,
             max_speed: 0.0,
+            steps_held: Some(0),
             status: status.into(),
         }
     }
