@@ -1101,8 +1101,14 @@ fn depenetration_does_not_launch_the_cloth() {
         w.step().unwrap();
         fastest = fastest.max(top_speed(&w));
     }
+    // The contacts push out at the limit; the position correction then leaves the cloth
+    // wrapped round 10 cm of sphere, stretched, and that stretch (input, counted by the
+    // balance) springs back: converged, either solver gives 2.89 m/s at one substep and 3.40 at
+    // four (tolerance 1e-3 and 1e-5 alike). A bound of twice the limit held only while this
+    // 121-vertex cloth stepped with block Jacobi, whose first solve stopped at its cap with a
+    // residual of 21 and lost the motion. The launch this guards against was 6 m/s.
     assert!(
-        fastest < 2.0 * limit,
+        fastest < 4.0 * limit,
         "a sphere appearing inside threw the cloth at {fastest} m/s"
     );
 }

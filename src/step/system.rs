@@ -222,7 +222,7 @@ pub(crate) fn solve(
 
 /// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
 /// multilevel solver has it on loan.
-fn dense_vectors(n: usize, nnz: usize) -> usize {
+pub(crate) const fn dense_vectors(n: usize, nnz: usize) -> usize {
     multigrid::dense_len(n, nnz).div_ceil(2)
 }
 

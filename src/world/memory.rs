@@ -60,6 +60,37 @@ impl Capacity {
     pub(crate) const fn p(&self) -> usize {
         self.pins as usize
     }
+    /// Couplings the multilevel hierarchy is sized for: the block pattern (one per edge) and
+    /// the hinge-only scalar pattern (at most one per edge).
+    const fn couplings(&self) -> usize {
+        self.e().saturating_mul(2)
+    }
+    /// `scratch_a`, which holds the multilevel hierarchy: a vertex's worth of `u32`, and at
+    /// least the hierarchy's index. The multilevel pools borrow arrays the world has anyway,
+    /// and below a few hundred vertices those are shorter than a hierarchy's fixed part (its
+    /// header, the coarsest level's dense factor): such meshes stepped with block Jacobi,
+    /// which on a 126-vertex fan of a stiff fabric (κ ≈ 1e7) stopped at its iteration cap
+    /// with Δv 24–194 % off and gained energy at every substep count (outside fuzzer).
+    /// Lengthened, they cost a few KB at most, and every mesh gets a hierarchy.
+    const fn multigrid_index(&self) -> usize {
+        at_least(
+            self.v(),
+            crate::multigrid::index_len(self.v(), self.couplings()),
+        )
+    }
+    /// `precond`, lent to the multilevel operators as `f32` (see [`Capacity::multigrid_index`]).
+    const fn multigrid_blocks(&self) -> usize {
+        let floats = crate::multigrid::blocks_len(self.v(), self.couplings());
+        let per_block = core::mem::size_of::<Mat3A>() / core::mem::size_of::<f32>();
+        at_least(self.v(), floats.div_ceil(per_block))
+    }
+    /// `force`, lent to the coarsest factor and the multilevel vectors (see
+    /// [`Capacity::multigrid_index`]).
+    const fn multigrid_vectors(&self) -> usize {
+        let dense = crate::step::system::dense_vectors(self.v(), self.couplings());
+        let vectors = crate::multigrid::vectors_len(self.v(), self.couplings());
+        at_least(self.v(), dense.saturating_add(vectors))
+    }
     /// Per-node rotations exist only for the research path (per-node warping, Eq. 14–17);
     /// the default world carries none.
     const fn r(&self) -> usize {
@@ -142,9 +173,10 @@ arrays! { cap;
     /// Topology scratch during init, then the multilevel hierarchy (`multigrid::build`):
     /// `scratch_a` its coarse levels, `scratch_b` the finest level's aggregate map; its
     /// per-solve memory is lent by `precond` and `force` (see `step/system.rs`). So the
-    /// multilevel solver adds no memory; a mesh too small for these budgets (~250 vertices)
-    /// steps with block Jacobi, a somewhat larger one gets fewer levels.
-    scratch_a: u32 = [cap.v(); 0],
+    /// multilevel solver adds no memory to a mesh of more than a few hundred vertices; a
+    /// smaller one's arrays are lengthened to a hierarchy's fixed part
+    /// ([`Capacity::multigrid_index`] and its two siblings).
+    scratch_a: u32 = [cap.multigrid_index(); 0],
     scratch_b: u32 = [cap.v(); 0],
     /// Block pattern (strictly upper CSR): the mesh edges, which the membrane stiffness and
     /// the bending Hessian share.
@@ -164,7 +196,7 @@ arrays! { cap;
     k_off: Mat3A = [cap.e(); Mat3A::ZERO],
     /// Elastic forces of the current substep (N); during the solve, the multilevel vectors
     /// and coarsest factor.
-    force: Vec3A = [cap.v(); Vec3A::ZERO],
+    force: Vec3A = [cap.multigrid_vectors(); Vec3A::ZERO],
     /// Bending Hessian `B Q` (N/m per unit displacement), a scalar per block times I3: on
     /// the diagonal, on the block pattern (`q_off`) and on the scalar pattern (`q_hinge`).
     q_diag: f32 = [cap.v(); 0.0],
@@ -186,7 +218,7 @@ arrays! { cap;
     /// a failed step's next solve from zero.
     w_p: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
-    precond: Mat3A = [cap.v(); Mat3A::IDENTITY],
+    precond: Mat3A = [cap.multigrid_blocks(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],
     /// Contacts: the collider a vertex is held against in this substep (or `mesh::NONE`),
     /// with the flags of `step::contacts::FLAGS` (static friction holds it; it was let go
@@ -209,6 +241,14 @@ arrays! { cap;
     /// removed; the slots stay packed).
     collider_id: u32 = [cap.c(); mesh::NONE],
     colliders: Collider = [cap.c(); Collider::new(Shape::Plane { normal: Vec3A::Z, offset: 0.0 }, 0.0, 0.0)],
+}
+
+const fn at_least(n: usize, floor: usize) -> usize {
+    if n > floor {
+        n
+    } else {
+        floor
+    }
 }
 
 /// Saturating, so that a capacity too large for a 32-bit `usize` asks for `usize::MAX` bytes
