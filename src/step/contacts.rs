@@ -856,8 +856,8 @@ struct Released<'a> {
 /// (grooves, the thin colliders' edge and face contacts) lets go of those that pull: its
 /// impulse is split into the contacts' normals ([`Hold::pulling`]), the pulling ones join its
 /// dropped set, and the rest hold it, their filter and velocities set again (the free
-/// directions keep the solve's `Δv`). Pinned vertices and sticking ones (friction decides
-/// there, in [`resolve`]) stay held.
+/// directions keep the solve's `Δv`). Pinned vertices stay held, and so do sticking ones
+/// with several contacts (friction decides there, in [`resolve`]).
 fn release_pulling(
     a: &Arrays<'_>,
     c: &Counts,
@@ -886,7 +886,7 @@ fn release_pulling(
     for (i, (((((contact, dropped), filter), dv), (&pin, (&xi, &vi))), (&aq, &b))) in
         vertices.enumerate()
     {
-        if *filter == Mat3A::IDENTITY || has_flag(*contact, STICK) || (pins && pin != mesh::NONE) {
+        if *filter == Mat3A::IDENTITY || (pins && pin != mesh::NONE) {
             continue;
         }
         let kept = if has_flag(*contact, ALONE) {
@@ -899,6 +899,8 @@ fn release_pulling(
                 continue;
             }
             None
+        } else if has_flag(*contact, STICK) {
+            continue;
         } else {
             let scene = match &mut several {
                 Some(scene) => scene,
