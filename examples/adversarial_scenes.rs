@@ -581,7 +581,10 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     } else {
         Solver::BlockJacobi
     };
-    let steps = steps_override.unwrap_or(r.int(100, 300));
+    // Events are scheduled over the drawn length, so `--steps N` runs the same scene for
+    // another number of steps (it used to schedule them over N: another scene).
+    let drawn = r.int(100, 300);
+    let steps = steps_override.unwrap_or(drawn);
     let n = mesh.positions.len();
     let dt = settings.time_step;
     let random_motion = |r: &mut Rng, fast: bool| -> Motion {
@@ -596,7 +599,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
                     },
             ),
             2 => Motion::Oscillate(r.dir() * size * r.range(0.05, 0.5), r.range(0.5, 20.0)),
-            _ => Motion::Teleport(r.int(0, steps), r.dir() * r.logr(0.01, 20.0)),
+            _ => Motion::Teleport(r.int(0, drawn), r.dir() * r.logr(0.01, 20.0)),
         }
     };
     // pins
@@ -625,7 +628,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
             }
         };
         let remove_at = if r.chance(0.15) {
-            Some(r.int(0, steps))
+            Some(r.int(0, drawn))
         } else {
             None
         };
@@ -712,7 +715,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
             0.0
         };
         let remove_at = if r.chance(0.1) {
-            Some(r.int(0, steps))
+            Some(r.int(0, drawn))
         } else {
             None
         };
@@ -737,7 +740,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     let mut events = vec![];
     let nev = r.int(0, 6);
     for _ in 0..nev {
-        let at = r.int(0, steps - 1);
+        let at = r.int(0, drawn - 1);
         let ev = match r.int(0, 8) {
             0 => Event::Kick(r.logr(0.01, if sane() { 3.0 } else { 20.0 })),
             1 => Event::SetVel(r.logr(0.01, if sane() { 3.0 } else { 20.0 })),
