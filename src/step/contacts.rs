@@ -683,17 +683,17 @@ fn hold_all(
     c: &Counts,
     st: &Settings,
     sub: Substep,
-    filter: &mut [Mat3A],
-    dv: &mut [Vec3A],
-    contact: &mut [u32],
+    lent: &mut Lent<'_>,
 ) -> Result<bool, StepError> {
     let n = c.n;
     let scene = scene(a, c, st, sub)?;
     let mut constrained = false;
-    let vertices = live_mut(contact, n)?
+    // a new substep: every contact holds until it pulls
+    live_mut(lent.dropped, n)?.fill(0);
+    let vertices = live_mut(lent.contact, n)?
         .iter_mut()
-        .zip(live_mut(filter, n)?.iter_mut())
-        .zip(live_mut(dv, n)?.iter_mut().zip(scene.v));
+        .zip(live_mut(lent.filter, n)?.iter_mut())
+        .zip(live_mut(lent.dv, n)?.iter_mut().zip(scene.v));
     for (i, ((contact, filter_i), (dv_i, &vi))) in vertices.enumerate() {
         let before = *contact;
         let strict = has_flag(before, LET_GO);
@@ -756,16 +756,7 @@ pub(crate) fn constrain(
     let mut constrained = false;
     live_mut(a.filter, n)?.fill(Mat3A::IDENTITY);
     if collide {
-        // the filter, Δv and contact states are lent out of the arrays while the scene reads
-        // the rest
-        let filter = core::mem::take(&mut a.filter);
-        let dv = core::mem::take(&mut a.dv);
-        let contact = core::mem::take(&mut a.contact);
-        let held = hold_all(a, c, st, sub, filter, dv, contact);
-        (a.filter, a.dv, a.contact) = (filter, dv, contact);
-        constrained = held?;
-        // a new substep: every contact holds until it pulls
-        live_mut(a.contact_dropped, n)?.fill(0);
+        constrained = lend(a, |a, lent| hold_all(a, c, st, sub, lent))?;
     }
     if pins {
         let (x, v) = (live(a.x, n)?, live(a.v, n)?);
@@ -820,28 +811,12 @@ pub(crate) fn release(
     if !collide_on(c, st) {
         return Ok(0);
     }
-    // the arrays it changes are lent out of the world's while the scene reads the rest
-    let mut lent = Released {
-        contact: core::mem::take(&mut a.contact),
-        dropped: core::mem::take(&mut a.contact_dropped),
-        filter: core::mem::take(&mut a.filter),
-        dv: core::mem::take(&mut a.dv),
-        list: core::mem::take(&mut a.w_s),
-    };
-    let released = release_pulling(a, c, st, sub, &mut lent);
-    let Released {
-        contact,
-        dropped,
-        filter,
-        dv,
-        list,
-    } = lent;
-    (a.contact, a.contact_dropped, a.filter, a.dv, a.w_s) = (contact, dropped, filter, dv, list);
-    released
+    lend(a, |a, lent| release_pulling(a, c, st, sub, lent))
 }
 
-/// What [`release`] changes, lent out of the world's arrays.
-struct Released<'a> {
+/// The arrays the contact stages change ([`hold_all`], [`release`]), lent out of the world's
+/// while the scene reads the rest.
+struct Lent<'a> {
     contact: &'a mut [u32],
     dropped: &'a mut [u32],
     filter: &'a mut [Mat3A],
@@ -849,6 +824,27 @@ struct Released<'a> {
     /// `w_s`, the PCG's scratch, which no one reads between two solves: the vertices let go,
     /// listed for the next solve (`system::Resume`).
     list: &'a mut [Vec3A],
+}
+
+/// Runs `stage` with the [`Lent`] arrays taken out of `a`, and puts them back.
+fn lend<'a, R>(a: &mut Arrays<'a>, stage: impl FnOnce(&Arrays<'a>, &mut Lent<'a>) -> R) -> R {
+    let mut lent = Lent {
+        contact: core::mem::take(&mut a.contact),
+        dropped: core::mem::take(&mut a.contact_dropped),
+        filter: core::mem::take(&mut a.filter),
+        dv: core::mem::take(&mut a.dv),
+        list: core::mem::take(&mut a.w_s),
+    };
+    let result = stage(a, &mut lent);
+    let Lent {
+        contact,
+        dropped,
+        filter,
+        dv,
+        list,
+    } = lent;
+    (a.contact, a.contact_dropped, a.filter, a.dv, a.w_s) = (contact, dropped, filter, dv, list);
+    result
 }
 
 /// [`release`] on the lent arrays. A vertex held by its own contact alone is let go when that
@@ -863,7 +859,7 @@ fn release_pulling(
     c: &Counts,
     st: &Settings,
     sub: Substep,
-    lent: &mut Released<'_>,
+    lent: &mut Lent<'_>,
 ) -> Result<u32, StepError> {
     let n = c.n;
     let pins = pins_on(c, st);
