@@ -1368,8 +1368,9 @@ WeftResult weft_world_set_effects(struct WeftWorld *world,
 /**
  * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
  * default: CG iterations that do not grow with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
- * cheaper cycle whose iteration count grows with the mesh); any other value is
- * `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
+ * cheaper cycle whose iteration count grows with the mesh; a step whose block-Jacobi solves
+ * did not converge and that gained energy is redone with the multilevel one); any other value
+ * is `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
  *
  * # Safety
  * `world` is a handle from `weft_world_create` (or NULL).

@@ -15,7 +15,8 @@
 //! measured from displacements, like gravity's). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
 //! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
 //! every step of every scene; when a step fails it, the world redoes it with twice the
-//! substeps (three times at most: ×2, ×4, ×8), and if it still gains, the excess is taken out of the free
+//! substeps (three times at most: ×2, ×4, ×8; block-Jacobi solves that did not converge are
+//! redone with the multilevel preconditioner), and if it still gains, the excess is taken out of the free
 //! vertices' kinetic energy. A gain beyond that kinetic energy, after all that, holds the
 //! cloth still for the step: the start positions with no velocity, which always balances
 //! ([`crate::world::StepStats::stopped`]). No step is refused for its energy (refusing kept

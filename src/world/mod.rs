@@ -967,7 +967,8 @@ impl<'a> World<'a> {
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
-    /// substeps (at most three times: ×2, ×4, ×8), and what it still gains is taken out of its kinetic energy
+    /// substeps (at most three times: ×2, ×4, ×8; with the multilevel preconditioner if its
+    /// block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
     /// the cloth is held still for the step ([`StepStats::stopped`]). On error the world keeps
     /// the state it had before the call.
@@ -1043,8 +1044,9 @@ impl<'a> World<'a> {
         let counts = self.counts();
         let mut substeps = self.settings.substeps.max(1);
         let mut redone = 0;
+        let mut solver = self.solver;
         let stats = loop {
-            let mut stats = self.run_substeps(dt, substeps)?;
+            let mut stats = self.run_substeps(dt, substeps, solver)?;
             let (input, input_noise) = self.last_input;
             let end = monitor::level(&self.a, &counts, &self.settings)?;
             let (gravity, gravity_noise) =
@@ -1064,6 +1066,13 @@ impl<'a> World<'a> {
                 self.restore_start(true);
                 substeps *= 2;
                 redone += 1;
+                // Block Jacobi that did not converge (its iteration count grows with the
+                // mesh and the stiffness, and on stiff slivers it breaks down in `f32` far
+                // below its cap) is what most likely gained: the redos use the multilevel
+                // preconditioner, which every world has.
+                if !stats.converged && solver == Solver::BlockJacobi {
+                    solver = Solver::Multigrid;
+                }
                 continue;
             }
             if !gain.is_finite() {
@@ -1111,8 +1120,16 @@ impl<'a> World<'a> {
 
     /// The substeps of one attempt at a step; `self.last_input` gets the work of external
     /// input (J) and its round-off.
-    fn run_substeps(&mut self, dt: f32, substeps: u32) -> Result<StepStats, StepError> {
-        let counts = self.counts();
+    fn run_substeps(
+        &mut self,
+        dt: f32,
+        substeps: u32,
+        solver: Solver,
+    ) -> Result<StepStats, StepError> {
+        let counts = Counts {
+            solver,
+            ..self.counts()
+        };
         let h = dt / substeps as f32;
         let mut stats = StepStats {
             converged: true,

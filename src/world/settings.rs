@@ -154,7 +154,8 @@ impl Settings {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Solver {
     /// The inverse 3×3 diagonal blocks: cheap per iteration, but the iteration count grows
-    /// with the mesh resolution.
+    /// with the mesh resolution. A step whose solves did not converge and that gained
+    /// energy is redone with [`Solver::Multigrid`] (see [`super::World::step_dt`]).
     BlockJacobi,
     /// The multilevel preconditioner of [`crate::multigrid`]: a K-cycle per iteration, an
     /// iteration count that grows little with the mesh (measured 18 / 23 / 27 / 33 per solve
