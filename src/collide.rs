@@ -206,22 +206,32 @@ impl Shape {
                 // only the normal motion of a plane is observable
                 normal * (offset - o0)
             }
-            (Shape::Sphere { center: c0, .. }, Shape::Sphere { center, .. }) => center - c0,
-            // a shrinking or growing shell moves its surface along the radius
+            // a shrinking or growing sphere, shell or capsule moves its surface along the
+            // radius too
             (
+                Shape::Sphere {
+                    center: c0,
+                    radius: r0,
+                },
+                Shape::Sphere { center, radius },
+            )
+            | (
                 Shape::Shell {
                     center: c0,
                     radius: r0,
                 },
                 Shape::Shell { center, radius },
+            ) => (center - c0) + outward(p - center) * (radius - r0),
+            (
+                Shape::Capsule {
+                    a: a0,
+                    b: b0,
+                    radius: r0,
+                },
+                Shape::Capsule { a, b, radius },
             ) => {
-                let d = p - center;
-                let len = d.length();
-                let n = if len > 0.0 { d / len } else { Vec3A::Z };
-                (center - c0) + n * (radius - r0)
-            }
-            (Shape::Capsule { a: a0, b: b0, .. }, Shape::Capsule { a, b, .. }) => {
-                (a - a0).lerp(b - b0, closest_on_segment(a, b, p))
+                let s = closest_on_segment(a, b, p);
+                (a - a0).lerp(b - b0, s) + outward(p - a.lerp(b, s)) * (radius - r0)
             }
             _ => Vec3A::ZERO,
         };
@@ -229,10 +239,14 @@ impl Shape {
     }
 
     /// [`Shape::surface_velocity`] when it is the same at every point (the shape moves without
-    /// turning or resizing around it: a plane, a sphere, a change of kind), else `None`: the
-    /// contact tests place a collider once per substep and reuse this for every vertex.
+    /// turning or resizing around it: a plane, a sphere of constant radius, a change of kind),
+    /// else `None`: the contact tests place a collider once per substep and reuse this for
+    /// every vertex.
     pub fn uniform_surface_velocity(&self, from: &Shape, dt: f32) -> Option<Vec3A> {
         match (*from, *self) {
+            (Shape::Sphere { radius: r0, .. }, Shape::Sphere { radius, .. }) if radius != r0 => {
+                None
+            }
             (Shape::Capsule { .. }, Shape::Capsule { .. })
             | (Shape::Shell { .. }, Shape::Shell { .. }) => None,
             // (the point is not read for these)
@@ -402,6 +416,17 @@ impl Shape {
     }
 }
 
+/// The unit direction of `d` (a point minus a sphere's centre or the nearest point of a
+/// capsule's axis); at the centre itself any direction is outward: `+Z`, deterministically.
+fn outward(d: Vec3A) -> Vec3A {
+    let len = d.length();
+    if len > 0.0 {
+        d / len
+    } else {
+        Vec3A::Z
+    }
+}
+
 /// Parameter in [0, 1] of the point of segment `a`–`b` nearest to `p`.
 fn closest_on_segment(a: Vec3A, b: Vec3A, p: Vec3A) -> f32 {
     let ab = b - a;
@@ -489,12 +514,9 @@ fn closest_on_triangle(t: [Vec3A; 3], x: Vec3A) -> [f32; 3] {
 #[inline]
 fn sphere_proximity(center: Vec3A, radius: f32, p: Vec3A) -> Proximity {
     let d = p - center;
-    let len = d.length();
-    // At the exact centre any direction is outward; pick +z deterministically.
-    let normal = if len > 0.0 { d / len } else { Vec3A::Z };
     Proximity {
-        distance: len - radius,
-        normal,
+        distance: d.length() - radius,
+        normal: outward(d),
     }
 }
 
@@ -758,6 +780,47 @@ mod tests {
         assert!(shell(1.0)
             .uniform_surface_velocity(&shell(2.0), 0.01)
             .is_none());
+        let ball = |r| Shape::Sphere {
+            center: Vec3A::ZERO,
+            radius: r,
+        };
+        assert!(ball(1.0)
+            .uniform_surface_velocity(&ball(2.0), 0.01)
+            .is_none());
+    }
+
+    /// A sphere, shell or capsule whose radius changes moves its surface along the normal at
+    /// the rate of change (besides its centre's or axis's motion).
+    #[test]
+    fn a_growing_radius_moves_the_surface_along_the_normal() {
+        let p = Vec3A::new(0.0, 3.0, 4.0); // 5 from the origin, normal (0, 0.6, 0.8)
+        let n = Vec3A::new(0.0, 0.6, 0.8);
+        let ball = |c: Vec3A, r| Shape::Sphere {
+            center: c,
+            radius: r,
+        };
+        let shell = |c: Vec3A, r| Shape::Shell {
+            center: c,
+            radius: r,
+        };
+        let dc = Vec3A::new(0.1, 0.0, 0.0);
+        for (from, to) in [
+            (ball(Vec3A::ZERO, 1.0), ball(dc, 1.5)),
+            (shell(Vec3A::ZERO, 1.0), shell(dc, 1.5)),
+        ] {
+            // the normal at p of the shape where it ends
+            let n = (p - dc).normalize();
+            let v = to.surface_velocity(&from, p, 0.5);
+            assert!((v - (dc + 0.5 * n) / 0.5).length() < 1e-5, "{to:?}: {v}");
+        }
+        // a pole along x: the normal at p is its distance from the axis, (0, 0.6, 0.8)
+        let pole = |r| Shape::Capsule {
+            a: Vec3A::new(-1.0, 0.0, 0.0),
+            b: Vec3A::new(1.0, 0.0, 0.0),
+            radius: r,
+        };
+        let v = pole(0.3).surface_velocity(&pole(0.1), p, 0.1);
+        assert!((v - 2.0 * n).length() < 1e-5, "{v}");
     }
 
     #[test]

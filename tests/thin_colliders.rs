@@ -341,3 +341,56 @@ fn a_coarse_cloth_sliding_off_a_small_sphere_never_cuts_it() {
         }
     }
 }
+
+/// A sphere and a pole that inflate under a resting cloth at 3 m/s lift it at their surface's
+/// speed: a growing radius moves the surface along its normal, and the contact takes that
+/// velocity, as a moving centre's. Before, only a shell's radius counted: the vertices on an
+/// inflating sphere or capsule were pushed out by position alone and kept no velocity
+/// (0.0–0.3 m/s while moving at 3 m/s). No energy may be left for the balance to remove, and
+/// the cloth is never held still.
+#[test]
+fn an_inflating_sphere_or_pole_lifts_the_cloth_at_its_surface_speed() {
+    let blob_bytes = stripes();
+    let blob = Blob::parse(blob_bytes).unwrap();
+    let sphere = |r: f32| Shape::Sphere {
+        center: Vec3A::new(0.0, 0.0, -0.25),
+        radius: r,
+    };
+    let pole = |r: f32| Shape::Capsule {
+        a: Vec3A::new(-1.0, 0.0, -0.25),
+        b: Vec3A::new(1.0, 0.0, -0.25),
+        radius: r,
+    };
+    let speed = 3.0;
+    for (name, shape) in [
+        ("sphere", &sphere as &dyn Fn(f32) -> Shape),
+        ("pole", &pole),
+    ] {
+        let sheet = coarse_sheet(0.0, 0.0, 0.0);
+        let mut mem = Vec::new();
+        let mut w = stripes_world(&mut mem, &sheet, &blob);
+        w.add_collider(Collider::new(shape(0.2), 0.5, THICKNESS))
+            .unwrap();
+        let mut radius = 0.2;
+        let middle = sheet.index(4, 4) as usize;
+        for step in 0..60 {
+            // the cloth lands on the sphere or pole first; it then grows for 6 steps
+            let growing = (5..11).contains(&step);
+            if growing {
+                radius += speed / 60.0;
+                w.set_collider_shape(0, shape(radius)).unwrap();
+            }
+            let s = w.step().unwrap();
+            assert!(
+                s.energy_removed == 0.0 && !s.stopped,
+                "{name}, step {step}: {s:?}"
+            );
+            // the middle vertex lies on top (the surface's normal is +z there)
+            let vz = w.velocities()[middle].z;
+            assert!(
+                !growing || (vz - speed).abs() < 0.1 * speed,
+                "{name}, step {step}: the middle rises at {vz} m/s on a surface rising at {speed}"
+            );
+        }
+    }
+}

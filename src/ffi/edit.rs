@@ -787,8 +787,9 @@ pub unsafe extern "C" fn weft_world_add_collider(
 
 /// Moves collider `index` (an id from `weft_world_add_collider`) to `*shape` (in your
 /// coordinates; same or another kind); an id of no collider is `WEFT_RESULT_UNKNOWN_COLLIDER`.
-/// The next step sweeps it linearly from where it was at the last step (a change of kind teleports). Wakes the world when it
-/// moved.
+/// The next step sweeps it linearly from where it was at the last step (a change of kind
+/// teleports): its centre, axis, plane offset and radius, so a sphere, capsule or shell that
+/// grows pushes the cloth at the speed its surface moves. Wakes the world when it moved.
 ///
 /// # Safety
 /// `world` is a handle from `weft_world_create` (or NULL); `shape` is readable.

@@ -810,7 +810,8 @@ impl<'a> World<'a> {
     }
 
     /// Moves collider `id` to `shape` (caller's coordinates); the next step sweeps it from
-    /// where it was.
+    /// where it was: its centre, axis, plane offset and radius (a growing sphere, capsule or
+    /// shell pushes the cloth at the speed its surface moves).
     pub fn set_collider_shape(&mut self, id: u32, shape: Shape) -> Result<(), EditError> {
         let shape = origin::shape_to_local(self.origin, shape);
         let k = self.collider_slot(id).ok_or(EditError::UnknownCollider)?;
