@@ -158,8 +158,10 @@ pub enum Solver {
     /// energy is redone with [`Solver::Multigrid`] (see [`super::World::step_dt`]).
     BlockJacobi,
     /// The multilevel preconditioner of [`crate::multigrid`]: a K-cycle per iteration, an
-    /// iteration count that grows little with the mesh (measured 18 / 23 / 27 / 33 per solve
-    /// at 21 / 41 / 81 / 161 vertices per side on weft-bench's scene). Per-node warping
+    /// iteration count that grows little with the mesh (measured on weft-bench's scene at
+    /// tolerance 1e-3, 2026-11-27: 14.6 / 14.5 / 14.3 / 12.2 per solve and 15.5 / 18.5 / 21.6 /
+    /// 36.6 per step at 21 / 41 / 81 / 161 vertices per side; a step has more solves where
+    /// contacts are let go). Per-node warping
     /// ([`Settings::per_node_warping`]) always uses block Jacobi.
     #[default]
     Multigrid,
