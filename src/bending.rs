@@ -200,35 +200,14 @@ pub fn add_forces(
     x: &[Vec3A],
     force: &mut [Vec3A],
 ) -> Result<(), crate::sparse::SparseError> {
-    let n = x.len();
-    if p.n() != n || force.len() != n || off.len() < p.nnz() {
-        return Err(crate::sparse::SparseError::LengthMismatch);
+    // `−Q x` is `Σ_j q_ij (x_j − x_i)` with the sign turned: the scalar couplings' own
+    // difference form, scaled by −1 (exact), in the same order.
+    crate::sparse::Scalars {
+        pattern: *p,
+        off,
+        scale: -1.0,
     }
-    for (i, &xi) in x.iter().enumerate() {
-        let range = p
-            .row_range(i)
-            .ok_or(crate::sparse::SparseError::InvalidPattern)?;
-        for k in range {
-            let (Some(&j), Some(&q)) = (p.cols.get(k), off.get(k)) else {
-                return Err(crate::sparse::SparseError::InvalidPattern);
-            };
-            let j = j as usize;
-            let d = x
-                .get(j)
-                .ok_or(crate::sparse::SparseError::IndexOutOfRange)?
-                - xi;
-            // `force.len() == n` was checked above
-            let fi = force
-                .get_mut(i)
-                .ok_or(crate::sparse::SparseError::LengthMismatch)?;
-            *fi -= q * d;
-            let fj = force
-                .get_mut(j)
-                .ok_or(crate::sparse::SparseError::IndexOutOfRange)?;
-            *fj += q * d;
-        }
-    }
-    Ok(())
+    .add_differences(x, force)
 }
 
 /// The bending energy `½ xᵀ B Q x = -½ Σ_{i<j} Q_ij |x_i - x_j|²` (J), in the same

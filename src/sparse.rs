@@ -10,6 +10,15 @@
 //! scalar matrix `S` (`diag: &[f32]`, `off: &[f32]`) applied as `S ⊗ I3`
 //! ([`mul_scalar_add`], [`add_scalar`]).
 //!
+//! A stiffness `K` annihilates translations: every row sums to zero, `K_ii = −Σ_j K_ij`.
+//! [`BlockMatrix::mul_stiffness`] and [`Scalars::add_differences`] use it to form `K x =
+//! Σ_j K_ij (x_j − x_i)` from differences, never `K_ii x_i` from absolute values: for a
+//! nearly uniform `x` (a cloth moving as a whole: `K v` in the step's right-hand side) the
+//! terms of `K_ii x_i + Σ_j K_ij x_j` are far larger than their sum, and their `f32`
+//! cancellation leaves spurious forces, which a rigidly moving cloth then feels; the
+//! differences are small and exact (Sterbenz), so `K x` is computed to its own size and a
+//! uniform `x` gives exactly zero.
+//!
 //! Every function is panic-free on any input: lengths are checked up front and every
 //! data-dependent index goes through `get`. A structurally invalid [`Pattern`] (built by hand
 //! rather than by [`build_pattern`]) gives [`SparseError::InvalidPattern`] or, where no index
@@ -182,6 +191,39 @@ impl Scalars<'_> {
         scalar_mul_add(None, &self.pattern, self.off, self.scale, x, y)
     }
 
+    /// `y_i += scale Σ_j s_ij (x_j − x_i)` over every coupling of row `i`: `y += scale ·
+    /// (S ⊗ I3) x` for the scalar stiffness `S` whose diagonal is minus its row sums, formed
+    /// from differences (module docs). Rows ascending, each scattering to its `j > i`.
+    /// Lengths as for [`Scalars::mul_add`]; [`SparseError::InvalidPattern`] if a column is out
+    /// of range.
+    pub fn add_differences(&self, x: &[Vec3A], y: &mut [Vec3A]) -> Result<(), SparseError> {
+        if self.is_empty() {
+            return Ok(());
+        }
+        let n = x.len();
+        let nnz = check_lengths(n, &self.pattern, self.off.len(), n, y.len())?;
+        let (Some(cols), Some(off)) = (self.pattern.cols.get(..nnz), self.off.get(..nnz)) else {
+            return Err(SparseError::LengthMismatch);
+        };
+        for (i, (w, &xi)) in self.pattern.row_start.windows(2).zip(x).enumerate() {
+            let &[a, b] = w else {
+                return Err(SparseError::InvalidPattern);
+            };
+            let range = a as usize..b as usize;
+            let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
+                return Err(SparseError::InvalidPattern);
+            };
+            for (&j, &s) in rc.iter().zip(ro) {
+                let j = j as usize;
+                let d = *x.get(j).ok_or(SparseError::InvalidPattern)? - xi;
+                let t = s * d * self.scale;
+                *y.get_mut(i).ok_or(SparseError::InvalidPattern)? += t;
+                *y.get_mut(j).ok_or(SparseError::InvalidPattern)? -= t;
+            }
+        }
+        Ok(())
+    }
+
     /// Pattern validity and `off.len() >= nnz` (an empty pattern is valid for any `n`).
     pub fn validate(&self, n: usize) -> Result<(), SparseError> {
         if self.pattern.row_start.is_empty() {
@@ -216,6 +258,64 @@ impl BlockMatrix<'_> {
             return mul(self.diag, &self.pattern, self.off, x, y);
         }
         mul_with_scalars(self.diag, &self.pattern, self.off, &self.scalars, x, y)
+    }
+
+    /// `y = K x = Σ_j A_ij (x_j − x_i)` over the blocks and the scalar couplings, for a
+    /// stiffness whose rows sum to zero (module docs): the same product as [`BlockMatrix::mul`]
+    /// with `diag_i = −Σ_j A_ij − scale Σ_j s_ij I`, which it never reads, without the
+    /// cancellation. Lengths and errors as for [`BlockMatrix::mul`].
+    pub fn mul_stiffness(&self, x: &[Vec3A], y: &mut [Vec3A]) -> Result<(), SparseError> {
+        let n = x.len();
+        let s = &self.scalars;
+        let nnz = check_lengths(n, &self.pattern, self.off.len(), n, y.len())?;
+        let snnz = if s.is_empty() {
+            0
+        } else {
+            check_lengths(n, &s.pattern, s.off.len(), n, n)?
+        };
+        let (Some(cols), Some(off), Some(scols), Some(soff)) = (
+            self.pattern.cols.get(..nnz),
+            self.off.get(..nnz),
+            s.pattern.cols.get(..snnz),
+            s.off.get(..snnz),
+        ) else {
+            return Err(SparseError::LengthMismatch);
+        };
+        // Rows from last to first, as in [`mul`]: row `i` forms each difference `d = x_j − x_i`
+        // once, gathers `A_ij d` and scatters `−A_ijᵀ d` into the `y_j`, `j > i`, which
+        // their own rows have already written.
+        let (mut cols, mut off, mut scols, mut soff) = (cols, off, scols, soff);
+        for (i, &xi) in x.iter().enumerate().rev() {
+            let (rc, ro);
+            (cols, off, rc, ro) = last_row(self.pattern.row_start.get(i), cols, off)?;
+            let mut sacc = Vec3A::ZERO;
+            if snnz > 0 {
+                let (sc, so);
+                (scols, soff, sc, so) = last_row(s.pattern.row_start.get(i), scols, soff)?;
+                for (&j, &sij) in sc.iter().zip(so) {
+                    let (Some(&xj), Some(yj)) = (x.get(j as usize), y.get_mut(j as usize)) else {
+                        return Err(SparseError::InvalidPattern);
+                    };
+                    let t = sij * (xj - xi);
+                    sacc += t;
+                    *yj -= s.scale * t;
+                }
+            }
+            let mut acc = Vec3A::ZERO;
+            for (&j, m) in rc.iter().zip(ro) {
+                let (Some(&xj), Some(yj)) = (x.get(j as usize), y.get_mut(j as usize)) else {
+                    return Err(SparseError::InvalidPattern);
+                };
+                let d = xj - xi;
+                let (dx, dy, dz) = (d.xxx(), d.yyy(), d.zzz());
+                acc += m.x_axis * dx + m.y_axis * dy + m.z_axis * dz;
+                *yj -= tmul(m, dx, dy, dz);
+            }
+            if let Some(yi) = y.get_mut(i) {
+                *yi = acc + s.scale * sacc;
+            }
+        }
+        Ok(())
     }
 
     /// Pattern validity plus `diag.len() == n` and `off.len() >= nnz`, for the blocks and
@@ -973,6 +1073,98 @@ pub(crate) mod tests {
                 };
                 assert!(bad.mul(&x, &mut y).is_err());
             }
+        }
+    }
+
+    /// A stiffness (rows summing to zero: element terms `[[k, −k], [−k, k]]` and scalar
+    /// couplings) applied from differences: the dense product; exactly zero for a uniform `x`;
+    /// and for a nearly uniform one (a cloth moving as a whole at 3 m/s, 1e-6 m/s apart) `K x`
+    /// to its own size, where the diagonal form's round-off is larger than `K x` itself.
+    #[test]
+    fn stiffness_from_differences_is_exact_for_uniform_motion() {
+        let mut rng = Lcg(5);
+        for n in [2usize, 9, 40] {
+            let pairs = random_pairs(&mut rng, n, 3 * n);
+            let op = OwnedPattern::build(n, &pairs);
+            let p = op.pattern();
+            let (mut diag, mut off) = (vec![Mat3A::ZERO; n], vec![Mat3A::ZERO; op.cols.len()]);
+            for &[a, b] in &pairs {
+                if a == b {
+                    continue;
+                }
+                let l = rng.mat();
+                let k = 1e4 * (l * l.transpose() + 0.1 * Mat3A::IDENTITY);
+                let (a, b) = (a as usize, b as usize);
+                add_block(&p, &mut diag, &mut off, a, a, k).unwrap();
+                add_block(&p, &mut diag, &mut off, b, b, k).unwrap();
+                add_block(&p, &mut diag, &mut off, a, b, -k).unwrap();
+            }
+            let spairs = random_pairs(&mut rng, n, n);
+            let sop = OwnedPattern::build(n, &spairs);
+            let soff: Vec<f32> = (0..sop.cols.len()).map(|_| -rng.uniform()).collect();
+            let scale = 30.0f32;
+            let mut a = dense(&diag, &p, &off);
+            let m = 3 * n;
+            for i in 0..n {
+                for (k, j) in sop.pattern().upper(i) {
+                    let v = f64::from(scale * soff[k]);
+                    for c in 0..3 {
+                        a[(3 * i + c) * m + 3 * j + c] += v;
+                        a[(3 * j + c) * m + 3 * i + c] += v;
+                        a[(3 * i + c) * m + 3 * i + c] -= v;
+                        a[(3 * j + c) * m + 3 * j + c] -= v;
+                    }
+                }
+            }
+            // The stiffness itself: diagonal blocks exactly minus their rows' couplings (the
+            // f32 `diag` holds them rounded).
+            for i in 0..n {
+                for r in 3 * i..3 * i + 3 {
+                    for c in 0..3 {
+                        let others: f64 = (0..n)
+                            .filter(|&j| j != i)
+                            .map(|j| a[r * m + 3 * j + c])
+                            .sum();
+                        a[r * m + 3 * i + c] = -others;
+                    }
+                }
+            }
+            let k = BlockMatrix {
+                diag: &diag,
+                pattern: p,
+                off: &off,
+                scalars: Scalars {
+                    pattern: sop.pattern(),
+                    off: &soff,
+                    scale,
+                },
+            };
+            let x: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let mut y = vec![Vec3A::splat(f32::NAN); n]; // must be fully overwritten
+            k.mul_stiffness(&x, &mut y).unwrap();
+            assert_close(&y, &dense_mul(&a, &x), 1e-5);
+            // Uniform: exactly zero.
+            let v = vec![Vec3A::new(3.0, -1.25, 0.7); n];
+            k.mul_stiffness(&v, &mut y).unwrap();
+            assert!(y.iter().all(|yi| *yi == Vec3A::ZERO), "{y:?}");
+            // Nearly uniform: within f32 of the exact product, as it stands (~1e-2).
+            let v: Vec<Vec3A> = (0..n)
+                .map(|_| Vec3A::new(3.0, -1.25, 0.7) + 1e-6 * rng.vec())
+                .collect();
+            let exact = dense_mul(&a, &v);
+            let err = |y: &[Vec3A]| {
+                y.iter()
+                    .flat_map(|v| v.to_array())
+                    .zip(&exact)
+                    .map(|(g, w)| (f64::from(g) - w).abs())
+                    .fold(0.0, f64::max)
+            };
+            let size = exact.iter().fold(0.0f64, |s, w| s.max(w.abs()));
+            k.mul_stiffness(&v, &mut y).unwrap();
+            assert!(err(&y) < 1e-4 * size, "error {} of {size}", err(&y));
+            // The same product with its diagonal blocks: round-off beyond the result.
+            k.mul(&v, &mut y).unwrap();
+            assert!(err(&y) > size, "diagonal form: error {} of {size}", err(&y));
         }
     }
 

@@ -582,11 +582,13 @@ fn a_sphere_pushed_into_a_flat_hanging_cloth() {
 /// the CG residual stalls at 1e-3..1e-2 of the right-hand side and then drifts (the attainable
 /// accuracy, not the cap); the solve then restarts from the true residual (residual
 /// replacement), which took the multigrid solves that converge from 151 to 934 of 1500 and
-/// the cloth's fastest vertex after 1500 steps from 0.019 to 0.007 m/s (measured 2026-11-27:
-/// 962 of 1500, 125.8 iterations per step, 0.0073 m/s; block Jacobi 285, 174.6, 0.0027 m/s).
-/// The rest is a measured limit (README, "Limits"): a third of the solves end "not converged"
-/// at tolerance 1e-3, and the cloth creeps at millimetres per second (at 1e-2, faster than the
-/// 1 cm/s this test allows).
+/// the cloth's fastest vertex after 1500 steps from 0.019 to 0.007 m/s. The creep itself came
+/// mostly from the right-hand side: `K v` formed as `K_ii v_i + Σ_j K_ij v_j` left forces of
+/// the stiff layers' f32 cancellation on a cloth at rest; from velocity differences
+/// (`BlockMatrix::mul_stiffness`) the fastest vertex moves at 0.17 mm/s, not 7.3 (measured
+/// 2026-11-27: 941 of 1500 converged, 112.2 iterations per step; block Jacobi 294, 172.1,
+/// 1.3 mm/s, not 2.7). The rest is a measured limit (README, "Limits"): a third of the solves
+/// end "not converged" at tolerance 1e-3.
 #[test]
 fn a_laminate_of_contrast_1e6_keeps_converging() {
     let toml = r#"size = 0.01
@@ -627,7 +629,7 @@ density = 0.2
              vertex {fastest} m/s",
             iterations as f64 / f64::from(solves)
         );
-        assert!(fastest < 1e-2, "{solver:?}: fastest vertex {fastest} m/s");
+        assert!(fastest < 2e-3, "{solver:?}: fastest vertex {fastest} m/s");
         if solver == weft::world::Solver::Multigrid {
             assert!(2 * converged > solves, "{converged}/{solves} converged");
         }

@@ -148,10 +148,19 @@ fn elastic_rhs(
         )?,
     };
     let (v, kv) = (live(a.v, n)?, live_mut(a.w_r, n)?);
-    k.mul(v, kv).map_err(|_| StepError::SolverBreakdown)?;
+    // From velocity differences: a cloth moving as a whole feels no elastic force from the
+    // f32 cancellation of `K_ii v_i + Σ_j K_ij v_j` (sparse module docs).
+    k.mul_stiffness(v, kv)
+        .map_err(|_| StepError::SolverBreakdown)?;
     if bending_on {
-        let (q_diag, q_off) = (live(a.q_diag, n)?, live(a.q_off, c.nnz)?);
-        sparse::mul_scalar_add(q_diag, &pattern, q_off, 1.0, v, kv)
+        let edges = sparse::Scalars {
+            pattern,
+            off: live(a.q_off, c.nnz)?,
+            scale: 1.0,
+        };
+        // `+ Q v`: the hinge couplings were in the product, these share the blocks' pattern
+        edges
+            .add_differences(v, kv)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
     for ((r, f), kv) in live_mut(a.rhs, n)?
