@@ -8,7 +8,9 @@
 //! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
 //! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
 //! it off alone. Speed is never quoted alone: every run also reports the steps the energy
-//! balance redid or held still, the energy it removed, and the worst edge strain.
+//! balance redid or held still, the energy it removed, the energy drift (each step's balance,
+//! end − start − input, summed: negative when the steps dissipate; and the worst step's), and
+//! the worst edge strain.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -98,6 +100,11 @@ struct Run {
     redone: u32,
     stopped: u32,
     removed: f64,
+    /// The energy drift: each step's balance (`StepStats::energy_gain`: end energy − start
+    /// energy − work of the input, J) summed over the timed steps (negative: dissipated), and
+    /// the largest single step's.
+    drift: f64,
+    worst_gain: f64,
     /// Largest |edge length / rest length − 1| over the timed steps, and in the last state
     /// (what a cloth that has come to rest keeps: peer engines' iterative solvers leave
     /// their hanging cloth stretched by a residual the maximum alone does not show).
@@ -192,6 +199,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
     let (mut iterations, mut solves, mut first, mut substeps) = (0u64, 0u64, 0u64, 0u64);
     let mut converged = 0u32;
     let (mut redone, mut stopped, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
+    let (mut drift, mut worst_gain) = (0.0f64, f64::NEG_INFINITY);
     let mut final_strain = worst_edge_strain(&world);
     for _ in 0..steps {
         let t0 = Instant::now();
@@ -207,6 +215,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
                 redone += (s.redone > 0) as u32;
                 stopped += s.stopped as u32;
                 removed += f64::from(s.energy_removed);
+                drift += f64::from(s.energy_gain);
+                worst_gain = worst_gain.max(f64::from(s.energy_gain));
             }
             Err(e) => return Err(format!("{e:?}")),
         }
@@ -226,6 +236,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32) -> Result<Run, String> {
         redone,
         stopped,
         removed,
+        drift,
+        worst_gain,
         worst_strain,
         final_strain,
     })
@@ -307,6 +319,8 @@ fn real_main(args: &Args) -> Result<(), String> {
                 "steps_redone": r.redone,
                 "steps_stopped": r.stopped,
                 "energy_removed_j": r.removed,
+                "energy_drift_j": r.drift,
+                "energy_gain_worst_step_j": r.worst_gain,
                 "worst_edge_strain": r.worst_strain,
                 "final_edge_strain": r.final_strain,
             })
@@ -330,6 +344,11 @@ fn real_main(args: &Args) -> Result<(), String> {
         println!(
             "energy balance   {} steps redone, {} held still, {:.3e} J removed",
             r.redone, r.stopped, r.removed
+        );
+        println!(
+            "energy drift     {:+.3e} J over the steps (end − start − input; negative: \
+             dissipated), worst step {:+.3e} J",
+            r.drift, r.worst_gain
         );
         println!(
             "worst edge strain {:.4}% over the steps, {:.4}% at the end",
