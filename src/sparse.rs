@@ -266,41 +266,17 @@ impl BlockMatrix<'_> {
     /// cancellation. Lengths and errors as for [`BlockMatrix::mul`].
     pub fn mul_stiffness(&self, x: &[Vec3A], y: &mut [Vec3A]) -> Result<(), SparseError> {
         let n = x.len();
-        let s = &self.scalars;
         let nnz = check_lengths(n, &self.pattern, self.off.len(), n, y.len())?;
-        let snnz = if s.is_empty() {
-            0
-        } else {
-            check_lengths(n, &s.pattern, s.off.len(), n, n)?
-        };
-        let (Some(cols), Some(off), Some(scols), Some(soff)) = (
-            self.pattern.cols.get(..nnz),
-            self.off.get(..nnz),
-            s.pattern.cols.get(..snnz),
-            s.off.get(..snnz),
-        ) else {
+        let (Some(cols), Some(off)) = (self.pattern.cols.get(..nnz), self.off.get(..nnz)) else {
             return Err(SparseError::LengthMismatch);
         };
         // Rows from last to first, as in [`mul`]: row `i` forms each difference `d = x_j − x_i`
         // once, gathers `A_ij d` and scatters `−A_ijᵀ d` into the `y_j`, `j > i`, which
         // their own rows have already written.
-        let (mut cols, mut off, mut scols, mut soff) = (cols, off, scols, soff);
+        let (mut cols, mut off) = (cols, off);
         for (i, &xi) in x.iter().enumerate().rev() {
             let (rc, ro);
             (cols, off, rc, ro) = last_row(self.pattern.row_start.get(i), cols, off)?;
-            let mut sacc = Vec3A::ZERO;
-            if snnz > 0 {
-                let (sc, so);
-                (scols, soff, sc, so) = last_row(s.pattern.row_start.get(i), scols, soff)?;
-                for (&j, &sij) in sc.iter().zip(so) {
-                    let (Some(&xj), Some(yj)) = (x.get(j as usize), y.get_mut(j as usize)) else {
-                        return Err(SparseError::InvalidPattern);
-                    };
-                    let t = sij * (xj - xi);
-                    sacc += t;
-                    *yj -= s.scale * t;
-                }
-            }
             let mut acc = Vec3A::ZERO;
             for (&j, m) in rc.iter().zip(ro) {
                 let (Some(&xj), Some(yj)) = (x.get(j as usize), y.get_mut(j as usize)) else {
@@ -312,10 +288,10 @@ impl BlockMatrix<'_> {
                 *yj -= tmul(m, dx, dy, dz);
             }
             if let Some(yi) = y.get_mut(i) {
-                *yi = acc + s.scale * sacc;
+                *yi = acc;
             }
         }
-        Ok(())
+        self.scalars.add_differences(x, y)
     }
 
     /// Pattern validity plus `diag.len() == n` and `off.len() >= nnz`, for the blocks and

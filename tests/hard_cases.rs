@@ -585,10 +585,12 @@ fn a_sphere_pushed_into_a_flat_hanging_cloth() {
 /// the cloth's fastest vertex after 1500 steps from 0.019 to 0.007 m/s. The creep itself came
 /// mostly from the right-hand side: `K v` formed as `K_ii v_i + Σ_j K_ij v_j` left forces of
 /// the stiff layers' f32 cancellation on a cloth at rest; from velocity differences
-/// (`BlockMatrix::mul_stiffness`) the fastest vertex moves at 0.17 mm/s, not 7.3 (measured
-/// 2026-11-27: 941 of 1500 converged, 112.2 iterations per step; block Jacobi 294, 172.1,
-/// 1.3 mm/s, not 2.7). The rest is a measured limit (README, "Limits"): a third of the solves
-/// end "not converged" at tolerance 1e-3.
+/// (`BlockMatrix::mul_stiffness`) the fastest vertex moves at 0.7 mm/s, not 7.3 (measured
+/// 2026-11-27: 956 of 1500 converged, 118.8 iterations per step; block Jacobi 375, 165.4,
+/// 1.6 mm/s, not 2.7). At this noise floor the order of the sums alone moves the creep ~4×
+/// (0.17 / 1.3 mm/s with the scalar terms summed into the row's register). The rest is a
+/// measured limit (README, "Limits"): a third of the solves end "not converged" at tolerance
+/// 1e-3.
 #[test]
 fn a_laminate_of_contrast_1e6_keeps_converging() {
     let toml = r#"size = 0.01
@@ -629,7 +631,7 @@ density = 0.2
              vertex {fastest} m/s",
             iterations as f64 / f64::from(solves)
         );
-        assert!(fastest < 2e-3, "{solver:?}: fastest vertex {fastest} m/s");
+        assert!(fastest < 3e-3, "{solver:?}: fastest vertex {fastest} m/s");
         if solver == weft::world::Solver::Multigrid {
             assert!(2 * converged > solves, "{converged}/{solves} converged");
         }

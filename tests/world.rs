@@ -125,7 +125,7 @@ fn rigid_motion_gives_zero_elastic_force() {
 /// rest costs. The step's `K v` used to be formed as `K_ii v_i + Σ_j K_ij v_j`, whose f32
 /// cancellation at 9 m/s made spurious elastic forces: vertices drifted 0.19 m/s apart and CG
 /// took 58 iterations per step. From velocity differences (`BlockMatrix::mul_stiffness`):
-/// 6e-4 m/s (the resolution of positions 45 m from the origin) and 11 iterations.
+/// 7e-4 m/s (the resolution of positions 45 m from the origin) and 11 iterations.
 #[test]
 fn a_cloth_moving_as_a_whole_stays_whole() {
     let mats = [Material {
