@@ -1670,7 +1670,9 @@ mod tests {
             let sys = System::random(&mut rng, n, k);
             let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
             let z = vec![Vec3A::ZERO; n];
-            let ((xj, sj), (xm, sm)) = both(&sys, None, None, &b, &z, 1e-6);
+            // (1e-5: at 1e-6 the stiffest system's true residuals stay at 5–6e-6 in f32;
+            // the solves used to claim 1e-6 on their drifted recursive residuals)
+            let ((xj, sj), (xm, sm)) = both(&sys, None, None, &b, &z, 1e-5);
             assert!(sj.converged && sm.converged, "n={n}: {sj:?} {sm:?}");
             let e = rel_diff(&xm, &xj);
             assert!(e <= 1e-4, "n={n}: {e:e}");
