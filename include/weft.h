@@ -518,12 +518,14 @@ enum WeftResult
      */
     WEFT_RESULT_NON_FINITE_PIN = 65,
     /**
-     * The linear solver broke down; the world kept the state it had before the step.
+     * The linear solver broke down at every substep count the step tried (up to 8× the
+     * setting's); the world kept the state it had before the step.
      */
     WEFT_RESULT_SOLVER_BREAKDOWN = 66,
     /**
-     * The step produced NaN or infinite positions; the world kept the state it had before.
-     * Usually a time step far too large for the cloth's stiffness: try more substeps.
+     * The step produced NaN or infinite positions at every substep count the step tried (up
+     * to 8× the setting's); the world kept the state it had before. Usually a time step far
+     * too large for the cloth's stiffness, or a pin target out of reach.
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
     /**

@@ -130,10 +130,12 @@ pub enum WeftResult {
     InvalidTimeStep = 64,
     /// The target of the pin on vertex `detail.vertex` is NaN or infinite; the step did nothing.
     NonFinitePin = 65,
-    /// The linear solver broke down; the world kept the state it had before the step.
+    /// The linear solver broke down at every substep count the step tried (up to 8× the
+    /// setting's); the world kept the state it had before the step.
     SolverBreakdown = 66,
-    /// The step produced NaN or infinite positions; the world kept the state it had before.
-    /// Usually a time step far too large for the cloth's stiffness: try more substeps.
+    /// The step produced NaN or infinite positions at every substep count the step tried (up
+    /// to 8× the setting's); the world kept the state it had before. Usually a time step far
+    /// too large for the cloth's stiffness, or a pin target out of reach.
     NonFiniteState = 67,
     /// The step's energy balance is not a number (its energies overflowed `double`). The world
     /// kept the state it had before the step. (A step that gains energy is redone with more

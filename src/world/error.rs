@@ -64,9 +64,11 @@ pub enum StepError {
     NonFinitePin {
         vertex: u32,
     },
-    /// The solver broke down (indefinite or non-finite system).
+    /// The solver broke down (indefinite or non-finite system), at every substep count the
+    /// step tried (up to 8× the setting's, as for a gain of energy).
     SolverBreakdown,
-    /// The step produced NaN or infinite positions or velocities.
+    /// The step produced NaN or infinite positions or velocities, at every substep count the
+    /// step tried.
     NonFiniteState,
     /// The step's energy balance is not a number (its energies overflowed `f64`). The state
     /// is the one before this step. (A step that gains energy is redone, and as a last resort

@@ -971,8 +971,9 @@ impl<'a> World<'a> {
     /// substeps (at most three times: ×2, ×4, ×8; with the multilevel preconditioner if its
     /// block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
-    /// the cloth is held still for the step ([`StepStats::stopped`]). On error the world keeps
-    /// the state it had before the call.
+    /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
+    /// breaks down or whose state overflows is redone the same way, and fails the step only
+    /// after the last redo. On error the world keeps the state it had before the call.
     pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(StepError::InvalidTimeStep);
@@ -1047,7 +1048,31 @@ impl<'a> World<'a> {
         let mut redone = 0;
         let mut solver = self.solver;
         let stats = loop {
-            let mut stats = self.run_substeps(dt, substeps, solver)?;
+            let attempt = self.run_substeps(dt, substeps, solver);
+            let redo = redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2;
+            let mut stats = match attempt {
+                Ok(stats) => stats,
+                // A solve that broke down or a state that overflowed is the substep's size as
+                // much as a gain below is: redone with twice the substeps, whose system is
+                // better conditioned (the stiffness against the mass shrinks as h²), without
+                // the failed Δv as a warm start. Failing at once kept the start, from which
+                // every later call failed the same way (an outside fuzzer's cloth of 700×
+                // vertex-mass contrast, 180 m from its origin: refused at every step from step
+                // 94 on; it steps at 4 substeps). After the last redo the step fails, with its
+                // start kept: holding the cloth still (`stop`) would put the pins on targets
+                // that may be what broke the solve (a pin at 1e30 m).
+                Err(e @ (StepError::SolverBreakdown | StepError::NonFiniteState)) => {
+                    if !redo {
+                        return Err(e);
+                    }
+                    self.restore_start(false);
+                    substeps *= 2;
+                    redone += 1;
+                    solver = Solver::Multigrid;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             let (input, input_noise) = self.last_input;
             let end = monitor::level(&self.a, &counts, &self.settings)?;
             let (gravity, gravity_noise) =
@@ -1060,7 +1085,7 @@ impl<'a> World<'a> {
                 self.level = Some(end);
                 break stats;
             }
-            if redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2 {
+            if redo {
                 // Redo from the start with half the substep: the linearization and the
                 // contacts' one-substep prediction are the usual sources of a gain. The
                 // attempt's last Δv warm-starts the redo.
