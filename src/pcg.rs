@@ -176,6 +176,10 @@ pub struct Stats {
     /// The reference `δ₀` the relative test used (what a solve that continues this one may
     /// pass as [`Settings::reference`]).
     pub reference: f64,
+    /// [`Work::q`] holds `A x` of the returned `x` (unfiltered): a solve that converged after
+    /// an iteration leaves the product it checked its convergence with, which a caller that
+    /// needs `A x` (the World's contact impulses) need not compute again.
+    pub product_kept: bool,
 }
 
 /// Why a solve failed. `LengthMismatch` and `NonFinite` are detected before anything is
@@ -430,6 +434,7 @@ fn run<F: Filter>(
         residual: relative(delta, reference),
         converged: delta <= threshold,
         reference,
+        product_kept: false,
     };
     let mut delta_min = delta;
     let mut restarts = 0;
@@ -536,12 +541,14 @@ fn run<F: Filter>(
             // agrees with it (q is free here): the recursive one drifts at f32's noise floor,
             // down as well as up. Measured: a World solve of a 700× vertex-mass contrast
             // claimed 1.6e-5 while its true residual was 16× the right-hand side's, and its
-            // step took a Δv of 8e4 m/s from forces of 8e-3 N·s. One product per solve; where
-            // the true residual is too large, it replaces the recursive one as above.
-            true_residual(a, f, b, x, q);
+            // step took a Δv of 8e4 m/s from forces of 8e-3 N·s. One product per solve, kept
+            // in q for the caller; where the true residual is too large, it replaces the
+            // recursive one as above.
+            a.apply(x, q);
             let (mut truth, mut recursive) = (Sum4::ZERO, Sum4::ZERO);
-            for (&qi, &ri) in q.iter().zip(r.iter()) {
-                truth.add(dot64(qi, qi));
+            for (i, ((&qi, &ri), &bi)) in q.iter().zip(r.iter()).zip(b.iter()).enumerate() {
+                let ti = f.at(i, bi - qi);
+                truth.add(dot64(ti, ti));
                 recursive.add(dot64(ri, ri));
             }
             // `δ` of the true residual, estimated from the ratio of the two residuals' sizes
@@ -555,10 +562,11 @@ fn run<F: Filter>(
                 0.0
             };
             if estimate <= DRIFT * DRIFT * threshold {
+                stats.product_kept = true;
                 break;
             }
-            for (ri, &qi) in r.iter_mut().zip(q.iter()) {
-                *ri = qi;
+            for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
+                *ri = f.at(i, bi - qi);
             }
             delta = start(precond, f, r, c, q, s);
             if !delta.is_finite() || delta < 0.0 {
@@ -613,16 +621,11 @@ fn restart<F: Filter>(
     q: &mut [Vec3A],
     s: &mut [Vec3A],
 ) -> f64 {
-    true_residual(a, f, b, x, r);
-    start(precond, f, r, c, q, s)
-}
-
-/// `r = S (b − A x)`.
-fn true_residual<F: Filter>(a: &impl Operator, f: &F, b: &[Vec3A], x: &[Vec3A], r: &mut [Vec3A]) {
     a.apply(x, r);
     for (i, (ri, &bi)) in r.iter_mut().zip(b.iter()).enumerate() {
         *ri = f.at(i, bi - *ri);
     }
+    start(precond, f, r, c, q, s)
 }
 
 /// CG's start from the residual `r`: `c = S P r`; returns `δ = rᵀ c`. `s` and `q` are scratch.
@@ -1219,6 +1222,7 @@ pub(crate) mod tests {
                 residual: 0.0,
                 converged: true,
                 reference: 0.0,
+                product_kept: false,
             }
         );
         // S b = 0 but a pinned vertex is displaced: the reference falls back to the initial

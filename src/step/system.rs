@@ -210,7 +210,8 @@ pub(crate) fn solve(
             }
         }
     };
-    if constrained {
+    // The contact impulses need `A Δv` (in `w_q`); a converged solve left it there.
+    if constrained && !stats.product_kept {
         op.mul(dv, live_mut(a.w_q, n)?)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
