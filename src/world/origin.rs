@@ -23,8 +23,9 @@
 //! coordinates are then the caller's, bit for bit) and any other is simulated within
 //! `ORIGIN_GRID / 2` plus its own size of local zero. `World::transform` chooses it again by
 //! the same rule for where the cloth lands (a teleport of kilometres would otherwise leave the
-//! cloth kilometres from local zero), `World::set_origin` moves it (e.g. after the cloth
-//! travelled far), `World::shift_origin` follows an engine that recenters its own
+//! cloth kilometres from local zero), a step chooses it again once the cloth has travelled
+//! more than `ORIGIN_GRID` from it (`World::follow_cloth`), `World::set_origin` moves it
+//! where the caller likes, and `World::shift_origin` follows an engine that recenters its own
 //! coordinates (as Jolt's and PhysX's "shift origin").
 
 use glam::{DMat3, DVec3, Quat, Vec3A};
