@@ -956,8 +956,13 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
     let mut transformed = false; // pins/colliders relative to cloth invalid after transform
     let mut last_stats: Option<weft::world::StepStats> = None;
     let scene_start = Instant::now();
+    // (`WEFT_SCENE_TIMEOUT` seconds to follow a slow scene to its end; 12 by default)
+    let timeout = std::env::var("WEFT_SCENE_TIMEOUT")
+        .ok()
+        .and_then(|t| t.parse::<f64>().ok())
+        .unwrap_or(12.0);
     for step in 0..sc.steps {
-        if scene_start.elapsed().as_secs_f64() > 12.0 {
+        if scene_start.elapsed().as_secs_f64() > timeout {
             out.anomalies.push(format!("TIMEOUT at step {step}"));
             break;
         }
@@ -1141,11 +1146,12 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
                 if trace {
                     let e = w.energy();
                     println!(
-                        "  step {step} ok it={} solves={} res={:.2e} conv={} sub={} redone={} removed={:.3e} gain={:.3e} contacts={} asleep={} E: k={:.6e} el={:.6e} b={:.6e} g={:.6e} tot {:.9e} -> {:.9e} input={input} vmax={:.3e} t={:.2}ms",
+                        "  step {step} ok it={} solves={} res={:.2e} conv={} sub={} redone={} removed={:.3e} gain={:.3e} contacts={} asleep={} E: k={:.6e} el={:.6e} b={:.6e} g={:.6e} tot {:.9e} -> {:.9e} input={input} vmax={:.3e} t={:.2}ms origin={:?}",
                         s.iterations, s.solves, s.residual, s.converged, s.substeps, s.redone,
                         s.energy_removed, s.energy_gain, s.contacts, s.asleep, e.kinetic, e.elastic,
                         e.bending, e.gravity, tot0, e.total(),
-                        w.velocities().iter().map(|v| v.length()).fold(0.0, f32::max), el * 1e3
+                        w.velocities().iter().map(|v| v.length()).fold(0.0, f32::max), el * 1e3,
+                        w.origin()
                     );
                 }
             }
