@@ -43,10 +43,11 @@
 //! ```
 //!
 //! holds, checked before the first iteration and after every one. At `f32`'s noise floor the
-//! recursive residual can drift from the true one; when it has grown 100× above its best, the
-//! solve replaces it by the true residual and restarts (the divergence guard), and
-//! from then on a convergence it claims is checked against the true residual before it
-//! stands. A solve that continues an
+//! recursive residual can drift from the true one, down as well as up: a convergence it
+//! claims stands only if the true residual `S (b − A x)` agrees (one product per solve, kept
+//! for the caller: [`Stats::product_kept`]), and when it has grown 100× above its best the
+//! solve replaces it by the true residual and restarts (the divergence guard). A solve that
+//! continues an
 //! earlier one of the same right-hand side (the World's solve after contacts were let go) may
 //! bring that one's `δ₀` ([`Settings::reference`]) instead of spending a preconditioner
 //! application on its own: the filters differ by the vertices let go, the scale of "small"
