@@ -508,68 +508,35 @@ fn run<F: Filter>(
         // instead took the laminate's converged multigrid solves from 962 to 914 of 1500 and
         // its iterations per step from 125.8 to 140.3. The unit test
         // `the_divergence_guard_keeps_the_step_that_grew_the_residual` shows both sides.
-        if delta_new > GROWTH * delta_min {
-            axpy(x, alpha, c);
-            if restarts == MAX_RESTARTS {
-                // the stop reports the true residual of the iterate it returns
-                delta = restart(a, precond, f, b, x, r, c, q, s);
-                if !delta.is_finite() || delta < 0.0 {
-                    return Err(PcgError::Breakdown);
-                }
-                stats.residual = relative(delta, reference);
-                stats.converged = delta <= threshold;
-                break;
-            }
-            // Residual replacement: the true residual of x, and CG afresh from it. At
-            // contrast 1e6 (a laminate's C^H) the recursive residual stalls at 1e-3..1e-2
-            // and then drifts (f32 vectors); the true residual lets CG go on converging.
-            restarts += 1;
-            delta = restart(a, precond, f, b, x, r, c, q, s);
-            if !delta.is_finite() || delta < 0.0 {
-                return Err(PcgError::Breakdown);
-            }
-            delta_min = delta;
-            stats.residual = relative(delta, reference);
-            stats.converged = delta <= threshold;
-            continue;
+        let grew = delta_new > GROWTH * delta_min;
+        if !grew {
+            delta_min = delta_min.min(delta_new);
+            stats.residual = relative(delta_new, reference);
+            stats.converged = delta_new <= threshold;
         }
-        delta_min = delta_min.min(delta_new);
-        stats.residual = relative(delta_new, reference);
-        stats.converged = delta_new <= threshold;
-        if stats.converged {
+        if grew || stats.converged {
             axpy(x, alpha, c);
             // A convergence the recursive residual claims stands only if the true residual
-            // agrees with it (q is free here): the recursive one drifts at f32's noise floor,
-            // down as well as up. Measured: a World solve of a 700× vertex-mass contrast
-            // claimed 1.6e-5 while its true residual was 16× the right-hand side's, and its
-            // step took a Δv of 8e4 m/s from forces of 8e-3 N·s. One product per solve, kept
-            // in q for the caller; where the true residual is too large, it replaces the
-            // recursive one as above.
-            a.apply(x, q);
-            let (mut truth, mut recursive) = (Sum4::ZERO, Sum4::ZERO);
-            for (i, ((&qi, &ri), &bi)) in q.iter().zip(r.iter()).zip(b.iter()).enumerate() {
-                let ti = f.at(i, bi - qi);
-                truth.add(dot64(ti, ti));
-                recursive.add(dot64(ri, ri));
-            }
-            // `δ` of the true residual, estimated from the ratio of the two residuals' sizes
-            // (the preconditioned norm of the true one would cost a preconditioner application)
-            let (truth, recursive) = (truth.total(), recursive.total());
-            let estimate = if recursive > 0.0 {
-                delta_new * (truth / recursive)
-            } else if truth > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            if estimate <= DRIFT * DRIFT * threshold {
+            // agrees with it: the recursive one drifts at f32's noise floor, down as well as
+            // up. Measured: a World solve of a 700× vertex-mass contrast claimed 1.6e-5 while
+            // its true residual was 16× the right-hand side's, and its step took a Δv of
+            // 8e4 m/s from forces of 8e-3 N·s. One product per solve, kept in q for the
+            // caller.
+            delta = if grew {
+                restart(a, precond, f, b, x, r, c, q, s)
+            } else if confirmed(a, f, b, x, r, q, delta_new, threshold) {
                 stats.product_kept = true;
                 break;
-            }
-            for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
-                *ri = f.at(i, bi - qi);
-            }
-            delta = start(precond, f, r, c, q, s);
+            } else {
+                for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
+                    *ri = f.at(i, bi - qi);
+                }
+                start(precond, f, r, c, q, s)
+            };
+            // Residual replacement (the guard's, or a claim the true residual did not
+            // confirm): CG afresh from the true residual of x, whose stats a stop reports. At
+            // contrast 1e6 (a laminate's C^H) the recursive residual stalls at 1e-3..1e-2 and
+            // then drifts (f32 vectors); the true residual lets CG go on converging.
             if !delta.is_finite() || delta < 0.0 {
                 return Err(PcgError::Breakdown);
             }
@@ -607,6 +574,39 @@ const MAX_RESTARTS: u32 = 2;
 /// is within this factor of the tolerance (at tolerances near `f32`'s noise floor the two
 /// differ by tens of percent; a block-Jacobi solve at 1e-6 ended 3 % above it).
 const DRIFT: f64 = 1.5;
+
+/// Whether the true residual `S (b − A x)` confirms a convergence the recursive residual `r`
+/// claims with `δ = delta`: its `δ`, estimated from the ratio of the two residuals' sizes (the
+/// preconditioned norm of the true one would cost a preconditioner application), is within
+/// [`DRIFT`]² of `threshold`. `q` gets `A x`.
+#[allow(clippy::too_many_arguments)]
+fn confirmed<F: Filter>(
+    a: &impl Operator,
+    f: &F,
+    b: &[Vec3A],
+    x: &[Vec3A],
+    r: &[Vec3A],
+    q: &mut [Vec3A],
+    delta: f64,
+    threshold: f64,
+) -> bool {
+    a.apply(x, q);
+    let (mut truth, mut recursive) = (Sum4::ZERO, Sum4::ZERO);
+    for (i, ((&qi, &ri), &bi)) in q.iter().zip(r.iter()).zip(b.iter()).enumerate() {
+        let ti = f.at(i, bi - qi);
+        truth.add(dot64(ti, ti));
+        recursive.add(dot64(ri, ri));
+    }
+    let (truth, recursive) = (truth.total(), recursive.total());
+    let estimate = if recursive > 0.0 {
+        delta * (truth / recursive)
+    } else if truth > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    estimate <= DRIFT * DRIFT * threshold
+}
 
 /// CG's start from `x`: `r = S (b − A x)`, `c = S P r`; returns `δ = rᵀ c` (`= rᵀ P r`, since
 /// `S r = r` and `S` is a symmetric projection). `s` and `q` are scratch.
