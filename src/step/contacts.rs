@@ -146,7 +146,7 @@ impl Held {
         // they give `rest · v`, taken at the vertex's velocity at the substep's start (and the
         // surface's `rest · vs` of its velocity). Taken as 0, a cloth carried with its sphere
         // read its own common motion along the tilt of each edge contact beside a vertex
-        // contact as an approach, and was lifted off the sphere (measured: 0.11 m/s up at 1 m/s
+        // contact as an approach, and was pushed off the sphere (measured: 0.11 m/s at 1 m/s
         // carried, where the cloth at rest stayed on it): the same scene moving as a whole
         // must do what it does at rest.
         rhs -= Vec3A::new(rest.dot(self.start), rest.dot(self.start), rest.dot(vs));
