@@ -1335,4 +1335,40 @@ mod tests {
             .cmple(Vec3A::new(1e-6, 1.0, 1e-6))
             .all());
     }
+
+    /// The same contacts seen from a frame moving at `u` (the surfaces and the vertex carried
+    /// along) hold the vertex the same way: every held velocity is the one at rest plus `u`,
+    /// including a contact riding on a nearly parallel held axis (whose tilt once read the
+    /// common motion as an approach).
+    #[test]
+    fn held_velocities_are_the_same_in_a_moving_frame() {
+        let tilted = Vec3A::new(0.087, 0.0, 0.996).normalize();
+        let side = Vec3A::new(0.0, 0.8, 0.6);
+        let contacts = [(Vec3A::Z, -0.05), (tilted, 0.02), (side, 0.01)];
+        let free_v = Vec3A::new(0.3, -0.2, 0.1);
+        let held = |u: Vec3A, count: usize| {
+            let mut held = Held {
+                start: free_v + u,
+                ..Held::default()
+            };
+            for &(n, push) in contacts.iter().take(count) {
+                held.add(n, u.dot(n) + push, u);
+            }
+            held
+        };
+        for count in 1..=3 {
+            let rest = held(Vec3A::ZERO, count);
+            for u in [Vec3A::new(1.0, 0.0, 0.0), Vec3A::new(-3.0, 2.0, 5.0)] {
+                let moving = held(u, count);
+                assert_eq!(moving.count, rest.count);
+                let (v0, v1) = (rest.velocity(free_v), moving.velocity(free_v + u));
+                let w1 = moving.surface_velocity(u);
+                assert!(
+                    (v1 - u - v0).length() < 1e-5,
+                    "{count}, {u}: {v1} against {v0}"
+                );
+                assert!((w1 - u).length() < 1e-5, "{count}, {u}: surface {w1}");
+            }
+        }
+    }
 }
