@@ -13,10 +13,10 @@
 /// function `$body` (same parameters): `$avx2`, compiled for AVX2, where [`avx2`] says the
 /// processor has it, else `$body` itself (the baseline build).
 macro_rules! multiversion {
-    ($(#[$attr:meta])* fn $name:ident, $avx2:ident => $body:ident
+    ($(#[$attr:meta])* $vis:vis fn $name:ident, $avx2:ident => $body:ident
         ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
         $(#[$attr])*
-        fn $name($($arg: $ty),*) -> $ret {
+        $vis fn $name($($arg: $ty),*) -> $ret {
             #[cfg(target_arch = "x86_64")]
             if $crate::cpu::avx2() {
                 // SAFETY: the processor supports AVX2 (detected by `cpu::avx2`).
