@@ -303,7 +303,10 @@ fn relative(delta: f64, reference: f64) -> f32 {
 ///   iteration) for an oblique one.
 /// * `work`: scratch, see [`Work`].
 ///
-/// Returns [`Stats`]; hitting `max_iterations` is `converged = false`, not an error.
+/// Returns [`Stats`]; hitting `max_iterations` is `converged = false`, not an error. A solve
+/// that stops short (its cap, its divergence guard, a negative curvature) ending worse than
+/// the prescribed part alone in CG's objective returns that part (`x = (I − S) x`) and its
+/// residual.
 pub fn solve(
     a: &impl Operator,
     precond: &[Mat3A],
@@ -560,7 +563,52 @@ fn run<F: Filter>(
         }
         delta = delta_new;
     }
+    // A solve that stopped short must not leave the step worse off than no change of the free
+    // velocities at all (see [`worse_than_none`]): then it keeps only the prescribed part.
+    if !stats.converged && worse_than_none(a, f, b, x, q, s, p) {
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi -= f.at(i, *xi);
+        }
+        let delta = restart(a, precond, f, b, x, r, c, q, s);
+        if !delta.is_finite() || delta < 0.0 {
+            return Err(PcgError::Breakdown);
+        }
+        stats.residual = relative(delta, reference);
+    }
     Ok(stats)
+}
+
+/// Whether `x` is worse than its prescribed part alone, `z = (I − S) x`, in the objective CG
+/// minimizes, `φ(x) = ½ xᵀA x − bᵀx`: with `y = S x`, whether
+/// `φ(x) − φ(z) = −yᵀ S (b − A x) − ½ yᵀA y` is positive. CG lowers `φ` from its start at
+/// every step in exact arithmetic, so this happens only when its start was worse still (a
+/// warm start from a failed attempt) or `f32` broke its descent. Measured: an outside fuzzer's cloth of 700× vertex-mass contrast, redone at twice
+/// the substeps from the failed attempt's `Δv`, stopped at a true residual of 7.9 with
+/// `φ(x) − φ(z)` = +25 (every other unconverged solve of the scene: below 0); the light
+/// vertices it threw a kilometre into a moving plane were projected back, credited as
+/// 4.7e19 J of input, and the cloth was accepted at 1e5 m/s. Two products (`q`, `s`, `p` are
+/// scratch here), at unconverged exits only.
+fn worse_than_none<F: Filter>(
+    a: &impl Operator,
+    f: &F,
+    b: &[Vec3A],
+    x: &[Vec3A],
+    q: &mut [Vec3A],
+    s: &mut [Vec3A],
+    p: &mut [Vec3A],
+) -> bool {
+    a.apply(x, q);
+    let mut y_r = Sum4::ZERO;
+    for (i, ((si, &xi), (&qi, &bi))) in s.iter_mut().zip(x).zip(q.iter().zip(b)).enumerate() {
+        *si = f.at(i, xi);
+        y_r.add(dot64(*si, f.at(i, bi - qi)));
+    }
+    a.apply(s, p);
+    let mut y_ay = Sum4::ZERO;
+    for (&si, &pi) in s.iter().zip(p.iter()) {
+        y_ay.add(dot64(si, pi));
+    }
+    -y_r.total() - 0.5 * y_ay.total() > 0.0
 }
 
 /// Growth of `δ` above its smallest value in a solve that marks the recursive residual as
@@ -1274,6 +1322,71 @@ pub(crate) mod tests {
             .unwrap();
             assert_eq!(st.iterations, cap);
             assert!(!st.converged && st.residual > 1e-6, "{st:?}");
+        }
+    }
+
+    /// A solve stopped short (here by its cap, after one iteration) that ends worse than no
+    /// change of its free components, in the objective CG minimizes (`½ xᵀA x − bᵀx`),
+    /// keeps only its prescribed part: from a warm start far off, one iteration is still far
+    /// off. From no warm start it keeps its iterate, which is better than none.
+    #[test]
+    fn a_solve_stopped_short_does_no_harm() {
+        let n = 30;
+        let mut rng = Lcg(77);
+        let sys = System::random(&mut rng, n, 5.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        let pinned = [2usize, 11, 19];
+        for &i in &pinned {
+            filter[i] = Mat3A::ZERO;
+        }
+        let z: Vec<Vec3A> = (0..n)
+            .map(|i| {
+                if pinned.contains(&i) {
+                    rng.vec()
+                } else {
+                    Vec3A::ZERO
+                }
+            })
+            .collect();
+        let a = sys.dense();
+        let phi = |x: &[Vec3A]| {
+            let (x, b) = (flat(x), flat(&b));
+            let m = x.len();
+            let xax: f64 = (0..m)
+                .map(|r| x[r] * (0..m).map(|k| a[r * m + k] * x[k]).sum::<f64>())
+                .sum();
+            0.5 * xax - x.iter().zip(&b).map(|(p, q)| p * q).sum::<f64>()
+        };
+        for far_off in [true, false] {
+            let mut x: Vec<Vec3A> = z
+                .iter()
+                .enumerate()
+                .map(|(i, &zi)| match (pinned.contains(&i), far_off) {
+                    (false, true) => zi + 1e3 * rng.vec(),
+                    _ => zi,
+                })
+                .collect();
+            let mut w = Scratch::new(n);
+            let st = solve(
+                &sys.matrix(),
+                &sys.precond(),
+                Some(&filter),
+                &b,
+                &mut x,
+                &settings(1e-9, 1),
+                w.work(),
+            )
+            .unwrap();
+            assert!(!st.converged);
+            if far_off {
+                assert!(
+                    x.iter().zip(&z).all(|(p, q)| p.to_array() == q.to_array()),
+                    "the far-off iterate was kept: {st:?}"
+                );
+            } else {
+                assert!(phi(&x) < phi(&z), "{} against {}", phi(&x), phi(&z));
+            }
         }
     }
 
