@@ -47,7 +47,9 @@
 //! claims stands only if the true residual `S (b − A x)` agrees (one product per solve, kept
 //! for the caller: [`Stats::product_kept`]), and when it has grown 100× above its best the
 //! solve replaces it by the true residual and restarts (the divergence guard). A solve that
-//! continues an
+//! stops short (its cap, the guard's last replacement, a negative curvature) and ends worse
+//! than its prescribed part alone in the objective `½ xᵀA x − bᵀx` keeps only that part
+//! (`worse_than_none`). A solve that continues an
 //! earlier one of the same right-hand side (the World's solve after contacts were let go) may
 //! bring that one's `δ₀` ([`Settings::reference`]) instead of spending a preconditioner
 //! application on its own: the filters differ by the vertices let go, the scale of "small"
@@ -582,12 +584,13 @@ fn run<F: Filter>(
 /// minimizes, `φ(x) = ½ xᵀA x − bᵀx`: with `y = S x`, whether
 /// `φ(x) − φ(z) = −yᵀ S (b − A x) − ½ yᵀA y` is positive. CG lowers `φ` from its start at
 /// every step in exact arithmetic, so this happens only when its start was worse still (a
-/// warm start from a failed attempt) or `f32` broke its descent. Measured: an outside fuzzer's cloth of 700× vertex-mass contrast, redone at twice
-/// the substeps from the failed attempt's `Δv`, stopped at a true residual of 7.9 with
-/// `φ(x) − φ(z)` = +25 (every other unconverged solve of the scene: below 0); the light
-/// vertices it threw a kilometre into a moving plane were projected back, credited as
-/// 4.7e19 J of input, and the cloth was accepted at 1e5 m/s. Two products (`q`, `s`, `p` are
-/// scratch here), at unconverged exits only.
+/// warm start from a failed attempt) or `f32` broke its descent. Measured: an outside
+/// fuzzer's cloth of 700× vertex-mass contrast, redone at twice the substeps from the failed
+/// attempt's `Δv`, stopped at a true residual of 7.9 with `φ(x) − φ(z)` = +25 (every other
+/// unconverged solve of the scene: below 0); the light vertices it threw a kilometre into a
+/// moving plane were projected back, credited as 4.7e19 J of input, and the cloth was
+/// accepted at 1e5 m/s. Two products (`q`, `s`, `p` are scratch here), at unconverged exits
+/// only.
 fn worse_than_none<F: Filter>(
     a: &impl Operator,
     f: &F,
