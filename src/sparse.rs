@@ -494,8 +494,8 @@ crate::cpu::multiversion! {
     /// Summation order is fixed (serial, rows from last to first), so results are
     /// bit-reproducible.
     ///
-    /// Runs the AVX2 build of the same code where the processor has it ([`crate::cpu`];
-    /// bit-identical), as [`mul_with_scalars`] does. A cloth without bending (no scalar
+    /// Runs the AVX2 build of the same code where the processor has it (`crate::cpu`;
+    /// bit-identical), as `mul_with_scalars` does. A cloth without bending (no scalar
     /// couplings) takes this product: with only its baseline build, such a step cost 4.5 %
     /// more instructions (weft-bench at 21×21, bending or every effect off).
     pub fn mul, mul_avx2 => mul_body(

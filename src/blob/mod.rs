@@ -68,7 +68,7 @@ const H_RESERVED: usize = 44;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u32)]
 pub enum SectionKind {
-    /// One [`CellInfo`] record: name, dimensions, scalars, `C^H` and bounds.
+    /// One `CellInfo` record (docs/BLOB.md): name, dimensions, scalars, `C^H` and bounds.
     Info = 1,
     /// [`MaterialRecord`]s, indexed by `tri_material`.
     Materials = 2,
