@@ -444,6 +444,9 @@ fn run<F: Filter>(
     };
     let mut delta_min = delta;
     let mut restarts = 0;
+    // A stop after a residual replacement reports the true residual (the recursive one
+    // drifted before), at the one exit below.
+    let mut drifted = false;
     while !stats.converged && stats.iterations < settings.max_iterations {
         // q = A c, and cᵀ q = cᵀ A c: the curvature along c. Since c = S c and S is a
         // symmetric projection, cᵀ q = cᵀ S q: q is filtered only where it updates r, below.
@@ -461,14 +464,7 @@ fn run<F: Filter>(
             // iterate and report "not converged". At the first iteration it means A itself is
             // not positive definite.
             if cq.is_finite() && stats.iterations > 0 {
-                if restarts > 0 {
-                    // the recursive residual has drifted before: report the true one
-                    let delta = restart(a, precond, f, b, x, r, c, q, s);
-                    if !delta.is_finite() || delta < 0.0 {
-                        return Err(PcgError::Breakdown);
-                    }
-                    stats.residual = relative(delta, reference);
-                }
+                drifted = restarts > 0;
                 break;
             }
             return Err(PcgError::Breakdown);
@@ -567,10 +563,13 @@ fn run<F: Filter>(
     }
     // A solve that stopped short must not leave the step worse off than no change of the free
     // velocities at all (see [`worse_than_none`]): then it keeps only the prescribed part.
-    if !stats.converged && worse_than_none(a, f, b, x, q, s, p) {
+    let dropped = !stats.converged && worse_than_none(a, f, b, x, q, s, p);
+    if dropped {
         for (i, xi) in x.iter_mut().enumerate() {
             *xi -= f.at(i, *xi);
         }
+    }
+    if dropped || drifted {
         let delta = restart(a, precond, f, b, x, r, c, q, s);
         if !delta.is_finite() || delta < 0.0 {
             return Err(PcgError::Breakdown);
