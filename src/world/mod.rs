@@ -963,7 +963,7 @@ impl<'a> World<'a> {
             });
         let centre = (lo + hi) * 0.5;
         if centre.abs().max_element() as f64 > ORIGIN_GRID {
-            let to = origin::origin_around([self.origin + centre.as_dvec3()].into_iter());
+            let to = origin::on_grid(self.origin + centre.as_dvec3());
             // (positions are finite after a step; a refusal would leave the origin as it is)
             let _ = self.set_origin(to);
         }

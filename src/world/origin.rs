@@ -106,7 +106,12 @@ pub(crate) fn origin_around(points: impl Iterator<Item = DVec3>) -> DVec3 {
     let (lo, hi) = points.fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
         (lo.min(p), hi.max(p))
     });
-    let centre = (lo + hi) * 0.5;
+    on_grid((lo + hi) * 0.5)
+}
+
+/// The origin for a cloth centred at `centre` (caller's coordinates): the nearest multiple of
+/// [`ORIGIN_GRID`], or zero when `centre` is not finite.
+pub(crate) fn on_grid(centre: DVec3) -> DVec3 {
     let origin = (centre / ORIGIN_GRID).round() * ORIGIN_GRID;
     if origin.is_finite() {
         origin
