@@ -813,6 +813,26 @@ pub(crate) mod tests {
         fn dense(&self) -> Vec<f64> {
             dense(&self.diag, &self.op.pattern(), &self.off)
         }
+        /// [`solve`] with this system's block-Jacobi preconditioner and fresh scratch.
+        fn solve_block_jacobi(
+            &self,
+            filter: Option<&[Mat3A]>,
+            b: &[Vec3A],
+            x: &mut [Vec3A],
+            settings: &Settings,
+        ) -> Stats {
+            let mut w = Scratch::new(b.len());
+            solve(
+                &self.matrix(),
+                &self.precond(),
+                filter,
+                b,
+                x,
+                settings,
+                w.work(),
+            )
+            .unwrap()
+        }
     }
 
     /// Owned [`Work`] vectors for the solver tests (here and in `multigrid`).
@@ -949,17 +969,7 @@ pub(crate) mod tests {
             let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
             let want = dense_solve(&sys.dense(), &flat(&b));
             let mut x = vec![Vec3A::ZERO; n];
-            let mut w = Scratch::new(n);
-            let st = solve(
-                &sys.matrix(),
-                &sys.precond(),
-                None,
-                &b,
-                &mut x,
-                &settings(1e-6, 500),
-                w.work(),
-            )
-            .unwrap();
+            let st = sys.solve_block_jacobi(None, &b, &mut x, &settings(1e-6, 500));
             assert!(st.converged, "n={n}: {st:?}");
             assert!(st.residual <= 1e-6);
             assert!(st.iterations <= 3 * n as u32 + 5, "n={n}: {st:?}");
@@ -1118,30 +1128,11 @@ pub(crate) mod tests {
             .chunks(3)
             .map(|c| Vec3A::new(c[0] as f32, c[1] as f32, c[2] as f32))
             .collect();
-        let mut w = Scratch::new(n);
-        let st = solve(
-            &sys.matrix(),
-            &sys.precond(),
-            None,
-            &b,
-            &mut x,
-            &settings(1e-5, 100),
-            w.work(),
-        )
-        .unwrap();
+        let st = sys.solve_block_jacobi(None, &b, &mut x, &settings(1e-5, 100));
         assert!(st.converged && st.iterations <= 1, "{st:?}");
         // A cold start on the same system takes many more.
         let mut x0 = vec![Vec3A::ZERO; n];
-        let cold = solve(
-            &sys.matrix(),
-            &sys.precond(),
-            None,
-            &b,
-            &mut x0,
-            &settings(1e-5, 100),
-            w.work(),
-        )
-        .unwrap();
+        let cold = sys.solve_block_jacobi(None, &b, &mut x0, &settings(1e-5, 100));
         assert!(cold.iterations > 5, "{cold:?}");
     }
 
@@ -1159,17 +1150,7 @@ pub(crate) mod tests {
         let z: Vec<Vec3A> = (0..n).map(|_| 2.0 * rng.vec()).collect();
         let want = dense_filtered(&sys.dense(), filter, &b, &z);
         let mut x = z.clone();
-        let mut w = Scratch::new(n);
-        let st = solve(
-            &sys.matrix(),
-            &sys.precond(),
-            Some(filter),
-            &b,
-            &mut x,
-            &settings(tolerance, 500),
-            w.work(),
-        )
-        .unwrap();
+        let st = sys.solve_block_jacobi(Some(filter), &b, &mut x, &settings(tolerance, 500));
         (x, z, want, st)
     }
 
@@ -1309,19 +1290,9 @@ pub(crate) mod tests {
         let n = 40;
         let sys = System::random(&mut rng, n, 1.0);
         let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
-        let mut w = Scratch::new(n);
         for cap in [0u32, 1, 3] {
             let mut x = vec![Vec3A::ZERO; n];
-            let st = solve(
-                &sys.matrix(),
-                &sys.precond(),
-                None,
-                &b,
-                &mut x,
-                &settings(1e-6, cap),
-                w.work(),
-            )
-            .unwrap();
+            let st = sys.solve_block_jacobi(None, &b, &mut x, &settings(1e-6, cap));
             assert_eq!(st.iterations, cap);
             assert!(!st.converged && st.residual > 1e-6, "{st:?}");
         }
@@ -1369,17 +1340,7 @@ pub(crate) mod tests {
                     _ => zi,
                 })
                 .collect();
-            let mut w = Scratch::new(n);
-            let st = solve(
-                &sys.matrix(),
-                &sys.precond(),
-                Some(&filter),
-                &b,
-                &mut x,
-                &settings(1e-9, 1),
-                w.work(),
-            )
-            .unwrap();
+            let st = sys.solve_block_jacobi(Some(&filter), &b, &mut x, &settings(1e-9, 1));
             assert!(!st.converged);
             if far_off {
                 assert!(
@@ -1699,17 +1660,7 @@ pub(crate) mod tests {
         let x0: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
         let run = || {
             let mut x = x0.clone();
-            let mut w = Scratch::new(n);
-            let st = solve(
-                &sys.matrix(),
-                &sys.precond(),
-                Some(&filter),
-                &b,
-                &mut x,
-                &settings(1e-6, 500),
-                w.work(),
-            )
-            .unwrap();
+            let st = sys.solve_block_jacobi(Some(&filter), &b, &mut x, &settings(1e-6, 500));
             (
                 x.iter()
                     .flat_map(|v| v.to_array().map(f32::to_bits))
