@@ -992,8 +992,8 @@ impl<'a> World<'a> {
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
-    /// substeps (at most three times: ×2, ×4, ×8; with the multilevel preconditioner if its
-    /// block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
+    /// substeps and a tenth of the CG tolerance (at most three times: ×2, ×4, ×8; with the
+    /// multilevel preconditioner if its block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
     /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
     /// breaks down or whose state overflows is redone the same way, and fails the step only
@@ -1072,8 +1072,9 @@ impl<'a> World<'a> {
         let mut substeps = self.settings.substeps.max(1);
         let mut redone = 0;
         let mut solver = self.solver;
+        let mut tolerance = self.settings.tolerance;
         let stats = loop {
-            let attempt = self.run_substeps(dt, substeps, solver);
+            let attempt = self.run_substeps(dt, substeps, solver, tolerance);
             let redo = redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2;
             let mut stats = match attempt {
                 Ok(stats) => stats,
@@ -1111,12 +1112,14 @@ impl<'a> World<'a> {
                 break stats;
             }
             if redo {
-                // Redo from the start with half the substep: the linearization and the
-                // contacts' one-substep prediction are the usual sources of a gain. The
-                // attempt's last Δv warm-starts the redo.
+                // Redo from the start with half the substep and a tighter solve: the
+                // linearization, the contacts' one-substep prediction and the solves' error
+                // are the usual sources of a gain (`monitor::redo_tolerance`). The attempt's
+                // last Δv warm-starts the redo.
                 self.restore_start(true);
                 substeps *= 2;
                 redone += 1;
+                tolerance = monitor::redo_tolerance(tolerance);
                 // Block Jacobi that did not converge (its iteration count grows with the
                 // mesh and the stiffness, and on stiff slivers it breaks down in `f32` far
                 // below its cap) is what most likely gained: the redos use the multilevel
@@ -1176,7 +1179,12 @@ impl<'a> World<'a> {
         dt: f32,
         substeps: u32,
         solver: Solver,
+        tolerance: f32,
     ) -> Result<StepStats, StepError> {
+        let settings = Settings {
+            tolerance,
+            ..self.settings
+        };
         let counts = Counts {
             solver,
             ..self.counts()
@@ -1194,7 +1202,7 @@ impl<'a> World<'a> {
                 t0: s as f32 / substeps as f32,
                 t: (s + 1) as f32 / substeps as f32,
             };
-            let report = step::substep(&mut self.a, &counts, &self.settings, sub)?;
+            let report = step::substep(&mut self.a, &counts, &settings, sub)?;
             stats.iterations += report.solve.iterations;
             stats.solves += report.solves;
             stats.first_iterations += report.first_iterations;
