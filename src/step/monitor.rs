@@ -38,8 +38,9 @@ use super::{hinge_pattern, live, live_mut, pattern};
 /// (its state never changed, so neither did the next attempt); 8× holds both (outside fuzzer).
 pub(crate) const MAX_REDOS: u32 = 3;
 
-/// The CG tolerance of a step's redo after an attempt at `tolerance` gained energy: a tenth
-/// of it, down to [`REDO_TOLERANCE_FLOOR`] (a tolerance already below that is kept). A step
+/// The CG tolerance of a step's redo after an attempt whose solves converged at `tolerance`
+/// and which gained energy: a tenth of it, down to [`REDO_TOLERANCE_FLOOR`] (a tolerance
+/// already below that is kept; after solves that stopped short of it, the World keeps it). A step
 /// gains from the linearization over its substep, which the redo's halved substep shrinks,
 /// or from its solves' error, which only a tighter tolerance shrinks: halving the substep
 /// halves each solve's `Δv` but not its relative error, and doubles the solves. Found by an

@@ -992,8 +992,9 @@ impl<'a> World<'a> {
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
-    /// substeps and a tenth of the CG tolerance (at most three times: ×2, ×4, ×8; with the
-    /// multilevel preconditioner if its block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
+    /// substeps, and a tenth of the CG tolerance when its solves had converged (at most three
+    /// times: ×2, ×4, ×8; with the multilevel preconditioner if its block-Jacobi solves did
+    /// not converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
     /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
     /// breaks down or whose state overflows is redone the same way, and fails the step only
@@ -1119,7 +1120,12 @@ impl<'a> World<'a> {
                 self.restore_start(true);
                 substeps *= 2;
                 redone += 1;
-                tolerance = monitor::redo_tolerance(tolerance);
+                // A tighter solve only after solves that reached their tolerance: one that
+                // stopped short of it (its cap, the divergence guard) cannot reach a tighter
+                // one, and pushed on it ends capped and dropped (`pcg`'s do-no-harm rule).
+                if stats.converged {
+                    tolerance = monitor::redo_tolerance(tolerance);
+                }
                 // Block Jacobi that did not converge (its iteration count grows with the
                 // mesh and the stiffness, and on stiff slivers it breaks down in `f32` far
                 // below its cap) is what most likely gained: the redos use the multilevel
