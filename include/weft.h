@@ -1030,9 +1030,9 @@ typedef struct WeftStepStats {
      */
     uint32_t contacts;
     /**
-     * Times the step was redone with twice the substeps (and, when it gained, a tenth of the
-     * CG tolerance) because its end state held energy that nothing supplied (0 to 3;
-     * `substeps` is the count finally used).
+     * Times the step was redone with twice the substeps (and, when it gained after
+     * converged solves, a tenth of the CG tolerance) because its end state held energy that nothing supplied
+     * (0 to 3; `substeps` is the count finally used).
      */
     uint32_t redone;
     /**
