@@ -1031,8 +1031,8 @@ typedef struct WeftStepStats {
     uint32_t contacts;
     /**
      * Times the step was redone with twice the substeps (and, when it gained after
-     * converged solves, a tenth of the CG tolerance) because its end state held energy that nothing supplied
-     * (0 to 3; `substeps` is the count finally used).
+     * converged solves at a tolerance looser than the default, a tenth of it) because its end
+     * state held energy that nothing supplied (0 to 3; `substeps` is the count finally used).
      */
     uint32_t redone;
     /**

@@ -242,8 +242,8 @@ pub struct WeftStepStats {
     /// Vertices in contact with a collider at the end of the step.
     pub contacts: u32,
     /// Times the step was redone with twice the substeps (and, when it gained after
-    /// converged solves, a tenth of the CG tolerance) because its end state held energy that nothing supplied
-    /// (0 to 3; `substeps` is the count finally used).
+    /// converged solves at a tolerance looser than the default, a tenth of it) because its end
+    /// state held energy that nothing supplied (0 to 3; `substeps` is the count finally used).
     pub redone: u32,
     /// Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
     pub energy_removed: f32,

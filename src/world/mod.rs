@@ -992,9 +992,9 @@ impl<'a> World<'a> {
     /// Advances by `dt` seconds in `settings.substeps` substeps (the stages of
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
-    /// substeps, and a tenth of the CG tolerance when its solves had converged (at most three
-    /// times: ×2, ×4, ×8; with the multilevel preconditioner if its block-Jacobi solves did
-    /// not converge), and what it still gains is taken out of its kinetic energy
+    /// substeps, and a tenth of a CG tolerance looser than the default when its solves had
+    /// converged (at most three times: ×2, ×4, ×8; with the multilevel preconditioner if its
+    /// block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
     /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
     /// breaks down or whose state overflows is redone the same way, and fails the step only

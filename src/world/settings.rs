@@ -79,7 +79,7 @@ impl Default for Settings {
             damping_stiffness: 0.001,
             wind: [0.0; 3],
             drag: 0.0,
-            tolerance: 1e-3,
+            tolerance: Self::DEFAULT_TOLERANCE,
             max_iterations: 200,
             per_node_warping: false,
             rotation_iterations: 4,
@@ -97,6 +97,8 @@ impl Settings {
     pub const MAX_ITERATIONS: u32 = 10_000;
     /// Largest accepted `substeps`.
     pub const MAX_SUBSTEPS: u32 = 1000;
+    /// The default `tolerance`, and the tightest one a redo of a gaining step asks for.
+    pub const DEFAULT_TOLERANCE: f32 = 1e-3;
     /// Largest accepted `rotation_iterations` (the extraction is warm started; a few suffice).
     pub const MAX_ROTATION_ITERATIONS: u32 = 100;
 
