@@ -99,7 +99,8 @@ pub struct StepStats {
     pub contacts: u32,
     /// Times the step was redone with twice the substeps (and, when it gained after
     /// converged solves at a tolerance looser than the default, a tenth of it) because its end
-    /// state had gained energy that nothing supplied (0 to 3; `substeps` is the count finally used).
+    /// state had gained energy that nothing supplied (0 to 3; `substeps` is the count finally
+    /// used).
     pub redone: u32,
     /// Energy (J) taken out of the kinetic energy at the end because the step still gained it
     /// without input after its redos (0 for a sound step).

@@ -1113,10 +1113,10 @@ impl<'a> World<'a> {
                 break stats;
             }
             if redo {
-                // Redo from the start with half the substep and a tighter solve: the
-                // linearization, the contacts' one-substep prediction and the solves' error
-                // are the usual sources of a gain (`monitor::redo_tolerance`). The attempt's
-                // last Δv warm-starts the redo.
+                // Redo from the start with half the substep, and after converged solves at a
+                // loose tolerance a tighter one: the linearization, the contacts' one-substep
+                // prediction and the solves' error are the usual sources of a gain
+                // (`monitor::redo_tolerance`). The attempt's last Δv warm-starts the redo.
                 self.restore_start(true);
                 substeps *= 2;
                 redone += 1;
