@@ -1032,7 +1032,8 @@ typedef struct WeftStepStats {
     /**
      * Times the step was redone with twice the substeps (and, when it gained after
      * converged solves at a tolerance looser than the default, a tenth of it) because its end
-     * state held energy that nothing supplied (0 to 3; `substeps` is the count finally used).
+     * state held energy that nothing supplied (0 to 3, and up to 5 while each redo at least
+     * halved the gain; `substeps` is the count finally used).
      */
     uint32_t redone;
     /**

@@ -243,7 +243,8 @@ pub struct WeftStepStats {
     pub contacts: u32,
     /// Times the step was redone with twice the substeps (and, when it gained after
     /// converged solves at a tolerance looser than the default, a tenth of it) because its end
-    /// state held energy that nothing supplied (0 to 3; `substeps` is the count finally used).
+    /// state held energy that nothing supplied (0 to 3, and up to 5 while each redo at least
+    /// halved the gain; `substeps` is the count finally used).
     pub redone: u32,
     /// Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
     pub energy_removed: f32,

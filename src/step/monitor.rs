@@ -15,8 +15,9 @@
 //! measured from displacements, like gravity's). Damping, friction, drag and implicit Euler itself only dissipate, so a sound
 //! step has `gain ≤ 0`; `floor` is the round-off of the energies themselves. The check runs on
 //! every step of every scene; when a step fails it, the world redoes it with twice the
-//! substeps (three times at most: ×2, ×4, ×8; block-Jacobi solves that did not converge are
-//! redone with the multilevel preconditioner), and if it still gains, the excess is taken out of the free
+//! substeps (three times: ×2, ×4, ×8, and up to twice more while each doubling at least halves
+//! the gain, [`converging`]; block-Jacobi solves that did not converge are redone with the
+//! multilevel preconditioner), and if it still gains, the excess is taken out of the free
 //! vertices' kinetic energy. A gain beyond that kinetic energy, after all that, holds the
 //! cloth still for the step: the start positions with no velocity, which always balances
 //! ([`crate::world::StepStats::stopped`]). No step is refused for its energy (refusing kept
@@ -37,6 +38,22 @@ use super::{hinge_pattern, live, live_mut, pattern};
 /// 2 m/s, or dropped into a bowl, gained energy at 4× and was refused at every later call
 /// (its state never changed, so neither did the next attempt); 8× holds both (outside fuzzer).
 pub(crate) const MAX_REDOS: u32 = 3;
+
+/// Most redos of a step whose gain keeps shrinking ([`converging`]): up to 32× the substeps.
+pub(crate) const MAX_CONVERGING_REDOS: u32 = 5;
+
+/// Whether a step that still gains `gain` after `redone` redos is redone once more although
+/// the [`MAX_REDOS`] are spent: while the last doubling of the substeps at least halved the
+/// gain (`previous`, the attempt before's), up to [`MAX_CONVERGING_REDOS`]. A gain from the
+/// linearization over the substep shrinks with it, and one that halves at every doubling is
+/// gone a doubling or two later; a gain that does not shrink (from the contacts' projection, or
+/// colliders in conflict) would not go with more substeps either, so those steps cost what they
+/// did. Without it, a step that could not balance at 8× held the cloth still; held at rest, the
+/// next step started from the same state, gained the same and was held again, at every later
+/// step (`tests/hard_cases.rs`, `a_step_whose_gain_shrinks_is_redone_until_it_balances`).
+pub(crate) fn converging(redone: u32, gain: f64, previous: Option<f64>) -> bool {
+    redone < MAX_CONVERGING_REDOS && previous.is_some_and(|p| gain.is_finite() && gain <= 0.5 * p)
+}
 
 /// The CG tolerance of a step's redo after an attempt whose solves converged at `tolerance` and
 /// which gained energy: a tenth of it, but no tighter than [`REDO_TOLERANCE_FLOOR`] (a tolerance

@@ -99,8 +99,8 @@ pub struct StepStats {
     pub contacts: u32,
     /// Times the step was redone with twice the substeps (and, when it gained after
     /// converged solves at a tolerance looser than the default, a tenth of it) because its end
-    /// state had gained energy that nothing supplied (0 to 3; `substeps` is the count finally
-    /// used).
+    /// state had gained energy that nothing supplied (0 to 3, and up to 5 while each redo at
+    /// least halved the gain; `substeps` is the count finally used).
     pub redone: u32,
     /// Energy (J) taken out of the kinetic energy at the end because the step still gained it
     /// without input after its redos (0 for a sound step).
@@ -108,7 +108,8 @@ pub struct StepStats {
     /// The energy balance of the step (J): end energy − start energy − work of external
     /// input, before any removal. ≤ 0 for a step that dissipates.
     pub energy_gain: f32,
-    /// Even redone with 8× the substeps, the step gained more energy than its kinetic energy
+    /// Even redone with 8× the substeps (up to 32× while its gain kept halving), the step
+    /// gained more energy than its kinetic energy
     /// could give back, so the world held the cloth still instead: positions as at the start
     /// of the step, velocities zero (`energy_removed` is the kinetic energy it had); its pins
     /// move to their targets over the next step. The next step starts from rest.

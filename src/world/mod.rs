@@ -993,8 +993,9 @@ impl<'a> World<'a> {
     /// `crate::step` (`src/step/`)), then checks the step's energy balance: a step whose end state holds
     /// more energy than its start plus the work of external input is redone with twice the
     /// substeps, and a tenth of a CG tolerance looser than the default when its solves had
-    /// converged (at most three times: ×2, ×4, ×8; with the multilevel preconditioner if its
-    /// block-Jacobi solves did not converge), and what it still gains is taken out of its kinetic energy
+    /// converged (three times: ×2, ×4, ×8, and twice more, to ×32, while each doubling at least
+    /// halves the gain; with the multilevel preconditioner if its block-Jacobi solves did not
+    /// converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
     /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
     /// breaks down or whose state overflows is redone the same way, and fails the step only
@@ -1074,6 +1075,7 @@ impl<'a> World<'a> {
         let mut redone = 0;
         let mut solver = self.solver;
         let mut tolerance = self.settings.tolerance;
+        let mut previous_gain = None;
         let stats = loop {
             let attempt = self.run_substeps(dt, substeps, solver, tolerance);
             let redo = redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2;
@@ -1112,7 +1114,10 @@ impl<'a> World<'a> {
                 self.level = Some(end);
                 break stats;
             }
-            if redo {
+            let converging = substeps <= Settings::MAX_SUBSTEPS / 2
+                && monitor::converging(redone, gain, previous_gain);
+            if redo || converging {
+                previous_gain = Some(gain);
                 // Redo from the start with half the substep, and after converged solves at a
                 // loose tolerance a tighter one: the linearization, the contacts' one-substep
                 // prediction and the solves' error are the usual sources of a gain
