@@ -121,9 +121,9 @@ pub fn build(
         used += agg_len + nc + 1 + nnzc;
         count += 1;
     }
-    // Operators and vectors of the coarse levels (after the finest level's 6 n inverse
+    // Operators and vectors of the coarse levels (after the finest level's inverse and lumped
     // floats); a level that does not fit the budgets is dropped.
-    let (mut blk, mut vec) = (6 * n0, 0usize);
+    let (mut blk, mut vec) = (FINE_FLOATS * n0, 0usize);
     let mut keep = 1;
     for lv in levels.iter_mut().take(count).skip(1) {
         let need_b = 12 * lv.n + 9 * lv.nnz;

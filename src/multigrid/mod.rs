@@ -88,6 +88,21 @@
 //! step with the Jacobi V-cycle was the fastest per step at 21, 41 and 81 per side in the same
 //! run (1.1–1.3× faster than Gauss–Seidel W despite more iterations): the default.
 //!
+//! # Lumped scalar couplings (the default, [`Options::lumped`])
+//!
+//! The world's matrix holds half its couplings as scalars (`sparse::Scalars`: hinge bending
+//! between the two vertices opposite an edge, which share no edge), and they cost ~30 % of a
+//! product (`examples/bench_kernels.rs`: 5.5 µs with them, 3.9 µs without at 21×21) although
+//! they are ~1e-4 of the diagonal. The finest level's Jacobi smoother, which multiplies by the
+//! matrix twice per cycle, leaves them out of its residuals and adds their magnitudes to the
+//! diagonal instead (`w_i = Σ_j |s_ij|`, one float per vertex in [`Memory::blocks`]): it
+//! smooths `Ã = A + (|H| − H)` with `H` those couplings, and `|H| − H` is positive
+//! semidefinite, so `Ã ≥ A` is SPD and the cycle stays symmetric and positive. The outer CG
+//! multiplies by `A` itself and the coarse levels are the Galerkin operators of `A`: only the
+//! preconditioner changes, never the system solved. Where a weight exceeds 5 % of its diagonal
+//! (`LUMP_LIMIT`: strong bending on a fine mesh), the solve smooths exactly. Measured against
+//! smoothing exactly: see the README ("Runtime step").
+//!
 //! Numerics: `f32` vectors and blocks, block inverses and the coarsest Cholesky in `f64`;
 //! every loop runs in a fixed serial order, so a cycle is bit-reproducible.
 //!
@@ -124,6 +139,15 @@ const PASS2: u32 = 1 << 31;
 /// Relative ridge added to a coarse diagonal block before inverting it (bounds its condition
 /// number by ~1e6 so that the `f32` inverse stays SPD; zero for all practical blocks).
 const RIDGE: f64 = 1e-6;
+/// Largest lumped weight of a vertex's scalar couplings, relative to its diagonal block's mean
+/// entry, at which the finest level smooths with them lumped ([`Options::lumped`]): beyond,
+/// the lumped cycle loses iterations. Measured on a 17×17 cloth with couplings of alternating
+/// sign (`cycle.rs`, `lumped_scalar_couplings_keep_the_cycle_symmetric_and_positive`, CG
+/// iterations to 1e-5, lumped against exact): weights up to 1 %, 2.5 %, 4.8 % of the diagonal
+/// 18 / 18, 15 / 14, 14 / 14; 7.6 % 14 / 13, 14 % 15 / 12, 20 % 16 / 11. The world's hinge
+/// bending weighs 7e-5 on weft-bench's cloth and 1e-7 on the stiff fabric of
+/// `tests/hard_cases.rs`.
+const LUMP_LIMIT: f32 = 0.05;
 /// Relative pivot below which the coarsest Cholesky treats a direction as decoupled.
 const PIVOT: f64 = 1e-9;
 
@@ -152,13 +176,17 @@ pub const fn index_len(vertices: usize, couplings: usize) -> usize {
         .saturating_add(coarse_couplings(couplings))
 }
 
+/// `f32` entries of [`Memory::blocks`] per finest-level vertex: its inverse diagonal block (6
+/// floats, symmetric) and the weight of its lumped scalar couplings ([`Options::lumped`]).
+const FINE_FLOATS: usize = 7;
+
 /// `f32` entries of [`Memory::blocks`]: the finest level's inverse diagonal blocks (6 floats
-/// each, symmetric) and the coarse operators (a symmetric diagonal block and its inverse per
-/// coarse vertex; 9 floats per coarse coupling). Rewritten by every [`Multigrid::new`], so a
-/// caller may lend memory that is free during the solve (the World lends its block-Jacobi
-/// array).
+/// each, symmetric) and lumped scalar couplings (1 float each), and the coarse operators (a
+/// symmetric diagonal block and its inverse per coarse vertex; 9 floats per coarse coupling).
+/// Rewritten by every [`Multigrid::new`], so a caller may lend memory that is free during the
+/// solve (the World lends its block-Jacobi array).
 pub const fn blocks_len(vertices: usize, couplings: usize) -> usize {
-    vertices.saturating_mul(6).saturating_add(
+    vertices.saturating_mul(FINE_FLOATS).saturating_add(
         coarse_vertices(vertices)
             .saturating_mul(12)
             .saturating_add(coarse_couplings(couplings).saturating_mul(9)),
@@ -273,6 +301,16 @@ pub struct Options {
     /// aggregation's piecewise-constant corrections need; the preconditioner is then a
     /// (mildly) nonlinear map, see the module docs.
     pub krylov: bool,
+    /// With the Jacobi smoother, the finest level's smoothing leaves the matrix's scalar
+    /// couplings (`sparse::Scalars`: the World's hinge bending between vertices that share no
+    /// edge) out of its residuals and adds their magnitudes to the diagonal instead: it
+    /// smooths `Ã = A − H + |H|`, where `H` holds those couplings and `|H|` is the diagonal of
+    /// their absolute row sums. `Ã − A = |H| − H` is positive semidefinite (a sum of
+    /// `|h| [[1, ∓1], [∓1, 1]]` per coupling), so `Ã` is SPD whenever `A` is and the cycle
+    /// stays symmetric and positive; the coarse levels keep the Galerkin operators of `A` and
+    /// the outer CG multiplies by `A` itself, so only the preconditioner changes. See the
+    /// module docs for what it saves. Ignored by Gauss–Seidel and without scalar couplings.
+    pub lumped: bool,
 }
 
 /// A level's smoother; both keep the cycle symmetric (the post-smoother is the adjoint of
@@ -297,6 +335,7 @@ impl Options {
         smoother: Smoother::Jacobi,
         cycle: 1,
         krylov: false,
+        lumped: true,
     };
 
     /// Block Gauss–Seidel, `ν = 1`, W-cycle: the fewest CG iterations per solve measured
