@@ -1098,6 +1098,8 @@ impl<'a> World<'a> {
                     substeps *= 2;
                     redone += 1;
                     solver = Solver::Multigrid;
+                    // a later gain is compared with a gain of the attempt just before it
+                    previous_gain = None;
                     continue;
                 }
                 Err(e) => return Err(e),
