@@ -89,9 +89,10 @@ struct Run {
     us_max: f64,
     cg_mean: f64,
     /// CG iterations per linear solve (a step solves once per substep, and again after
-    /// contacts that pulled are let go).
+    /// contacts that pulled are let go or vertices the solve carried into a collider held).
     cg_per_solve: f64,
-    /// CG iterations of a substep's first solve, and of each solve after contacts were let go.
+    /// CG iterations of a substep's first solve, and of each solve after contacts were let go
+    /// or engaged.
     cg_first: f64,
     cg_per_resolve: f64,
     converged: f64,
@@ -336,7 +337,7 @@ fn real_main(args: &Args) -> Result<(), String> {
             r.cg_mean, r.cg_per_solve, args.tolerance
         );
         println!(
-            "                 {:.1} in a substep's first solve, {:.1} per re-solve after a release",
+            "                 {:.1} in a substep's first solve, {:.1} per re-solve after a release or a catch",
             r.cg_first, r.cg_per_resolve
         );
         println!("converged        {:.0}% of steps", r.converged * 100.0);

@@ -97,7 +97,7 @@ pub(crate) struct Report {
     pub input: f64,
 }
 
-/// Solves after contacts were let go, at most (`contacts::release`).
+/// Solves after contacts were let go or engaged, at most (`contacts::release`, `contacts::engage`).
 const RELEASE_ROUNDS: u32 = 2;
 
 /// One linearized implicit Euler substep.
@@ -108,7 +108,7 @@ pub(crate) fn substep(
     sub: Substep,
 ) -> Result<Report, StepError> {
     forces::accumulate(a, c, st, sub.h)?;
-    let constrained = contacts::constrain(a, c, st, sub)?;
+    let mut constrained = contacts::constrain(a, c, st, sub)?;
     system::fold(a, c, st, sub.h)?;
     let first = system::solve(a, c, st, sub.h, constrained, None)?;
     let (mut solve, mut operators_kept) = (first.stats, first.operators_kept);
@@ -117,18 +117,24 @@ pub(crate) fn substep(
     // A contact that pulls is let go, and the solve goes on without it (a vertex let go can
     // leave another one pulling, hence the rounds): with the first solve's reference, and
     // with the multilevel operators set up again only around the vertices let go.
+    // Likewise a free vertex the solve itself drove a little way into a collider is held, and
+    // the solve goes on with it (`contacts::engage`, in the same rounds).
     for _ in 0..RELEASE_ROUNDS {
         let released = if constrained {
             contacts::release(a, c, st, sub)?
         } else {
             0
         };
-        if released == 0 {
+        let engaged = contacts::engage(a, c, st, sub, released)?;
+        if released + engaged == 0 {
             break;
         }
+        // An unconstrained solve's operators are those of the identity filter, which is what
+        // `constrain` left at every vertex not listed.
+        constrained |= engaged > 0;
         let resume = system::Resume {
             reference: solve.reference,
-            released: released as usize,
+            released: (released + engaged) as usize,
             operators_kept,
         };
         let more = system::solve(a, c, st, sub.h, constrained, Some(resume))?;

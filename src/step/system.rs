@@ -71,14 +71,14 @@ pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Res
 }
 
 /// A solve that goes on from an earlier one of the same system after contacts were let go
-/// (`contacts::release`).
+/// or engaged (`contacts::release`, `contacts::engage`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Resume {
     /// The earlier solve's reference `δ₀` (the same right-hand side, so the same scale for
     /// "small": it saves a cycle).
     pub reference: f64,
-    /// How many vertices were let go; their indices are the first `u32`s of `a.w_s`, which
-    /// `contacts::release` wrote there.
+    /// How many vertices were let go or newly held; their indices are the first `u32`s of
+    /// `a.w_s`, which `contacts::release` and `contacts::engage` wrote there.
     pub released: usize,
     /// The earlier solve left its multilevel operators in the lent pools (it did not fall
     /// back to block Jacobi), so only what the released vertices touch is set up again.

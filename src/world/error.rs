@@ -82,11 +82,12 @@ pub struct StepStats {
     /// PCG iterations summed over substeps.
     pub iterations: u32,
     /// Linear solves summed over substeps: one per substep, plus one per round of contacts
-    /// let go because they pulled (`iterations / solves` is the cost of a solve).
+    /// let go because they pulled or engaged because the solve carried a vertex into a
+    /// collider (`iterations / solves` is the cost of a solve).
     pub solves: u32,
     /// The PCG iterations of each substep's first solve, summed over substeps; the rest
-    /// (`iterations − first_iterations`) went to the solves after contacts were let go, which
-    /// start from the first solve's answer and cost a few each.
+    /// (`iterations − first_iterations`) went to the solves after contacts were let go or
+    /// engaged, which start from the first solve's answer and cost a few each.
     pub first_iterations: u32,
     /// Largest final relative residual over substeps.
     pub residual: f32,
