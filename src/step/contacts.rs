@@ -245,6 +245,47 @@ impl Hold {
         true
     }
 
+    /// The vertex's contact state once this holds it, from its state `before`: on the same
+    /// collider it keeps sticking (or sliding), since `resolve` decides again from the solve's
+    /// impulse; a new contact starts sliding. A vertex let go ([`LET_GO`]) stays let go until
+    /// something holds it again.
+    fn state(&self, before: u32) -> u32 {
+        let mut state = match self.primary {
+            Some((k, _)) if collider_of(before) == k => before & (STICK | !FLAGS),
+            Some((k, _)) => k as u32,
+            None => NO_COLLIDER,
+        };
+        if self.primary.is_some() && self.held.contacts == 1 {
+            state |= ALONE;
+        }
+        if has_flag(before, LET_GO) {
+            state |= STRICT | if self.held.count == 0 { LET_GO } else { 0 };
+        }
+        if state == NO_COLLIDER {
+            mesh::NONE
+        } else {
+            state
+        }
+    }
+
+    /// The PCG filter and prescribed `Δv` of a vertex this holds (in contact state `state`),
+    /// at velocity `vi`; the free directions keep the `Δv` they have. Static friction (a
+    /// sticking state) moves it with the surface, all three directions prescribed; the
+    /// solve's impulse says whether the friction cone still holds it (`resolve`).
+    fn prescribe(&self, state: u32, vi: Vec3A, filter: &mut Mat3A, dv: &mut Vec3A) {
+        match self.primary {
+            Some((_, vs)) if has_flag(state, STICK) => {
+                *filter = Mat3A::ZERO;
+                *dv = self.held.velocity(vs) - vi;
+            }
+            _ => {
+                let free = self.held.free();
+                *filter = free;
+                *dv = self.held.velocity(vi + free * *dv) - vi;
+            }
+        }
+    }
+
     /// The contacts to let go (bits, as in a dropped set) when `j` is the impulse that holds
     /// the vertex: those of the axis that pulls hardest (its multiplier most negative,
     /// [`Held::multipliers`]), or none. One axis per solve, as an active-set method drops one
@@ -743,45 +784,12 @@ fn hold_all(
         .zip(live_mut(lent.filter, n)?.iter_mut())
         .zip(live_mut(lent.dv, n)?.iter_mut().zip(scene.v));
     for (i, ((contact, filter_i), (dv_i, &vi))) in vertices.enumerate() {
-        let before = *contact;
-        let strict = has_flag(before, LET_GO);
-        let hold = scene.hold(i, strict, 0);
-        // on the same collider it keeps sticking (or sliding): `resolve` decides again from
-        // the solve's impulse; a new contact starts sliding
-        let mut state = match hold.primary {
-            Some((k, _)) if collider_of(before) == k => before & (STICK | !FLAGS),
-            Some((k, _)) => k as u32,
-            None => NO_COLLIDER,
-        };
-        if hold.primary.is_some() && hold.held.contacts == 1 {
-            state |= ALONE;
-        }
-        if strict {
-            // a vertex let go stays let go until something holds it again
-            state |= STRICT | if hold.held.count == 0 { LET_GO } else { 0 };
-        }
-        *contact = if state == NO_COLLIDER {
-            mesh::NONE
-        } else {
-            state
-        };
+        let hold = scene.hold(i, has_flag(*contact, LET_GO), 0);
+        *contact = hold.state(*contact);
         if hold.held.count == 0 {
             continue;
         }
-        match hold.primary {
-            Some((_, vs)) if *contact & STICK != 0 => {
-                // Static friction held it: it moves with the surface (all three directions
-                // prescribed); the solve's impulse says whether the friction cone still holds
-                // it (`resolve`).
-                *filter_i = Mat3A::ZERO;
-                *dv_i = hold.held.velocity(vs) - vi;
-            }
-            _ => {
-                let free = hold.held.free();
-                *filter_i = free;
-                *dv_i = hold.held.velocity(vi + free * *dv_i) - vi;
-            }
-        }
+        hold.prescribe(*contact, vi, filter_i, dv_i);
         constrained = true;
     }
     Ok(constrained)
@@ -943,20 +951,8 @@ fn engage_reaching(
         if hold.held.count == 0 || just_released.contains(&(i as u32)) {
             continue;
         }
-        let mut state = match hold.primary {
-            Some((k, _)) => k as u32,
-            None => NO_COLLIDER,
-        };
-        if hold.primary.is_some() && hold.held.contacts == 1 {
-            state |= ALONE;
-        }
-        if has_flag(*contact, LET_GO) {
-            state |= STRICT;
-        }
-        *contact = state;
-        let free = hold.held.free();
-        *filter = free;
-        *dv = hold.held.velocity(vi + free * *dv) - vi;
+        *contact = hold.state(*contact);
+        hold.prescribe(*contact, vi, filter, dv);
         *rest.get_mut(engaged).ok_or(StepError::SolverBreakdown)? = i as u32;
         engaged += 1;
     }
@@ -1062,16 +1058,15 @@ fn release_pulling(
         };
         match kept {
             Some(kept) => {
-                let free = kept.held.free();
-                *filter = free;
-                *dv = kept.held.velocity(vi + free * *dv) - vi;
-                // friction acts through the deepest vertex contact still held, if any
+                // friction acts through the deepest vertex contact still held, if any (not
+                // sticking: a sticking vertex with several contacts was passed over above)
                 let flags = *contact & FLAGS;
                 *contact = match kept.primary {
                     Some((k, _)) => k as u32 | flags,
                     None if flags == 0 => mesh::NONE,
                     None => NO_COLLIDER | flags,
                 };
+                kept.prescribe(*contact, vi, filter, dv);
             }
             None => {
                 *contact = NO_COLLIDER | LET_GO;
