@@ -893,7 +893,7 @@ pub(crate) fn release(
 /// Measured: a sphere moving through a pinned cloth at 50 m/s, which carries it, has the
 /// membrane pull vertices back into it at 10–25 m/s; held, they kept the cloth on the sphere a
 /// frame longer (3.3e4 J of stretch, input) and its snap-back peaked at 976 J of kinetic
-/// energy, against 171 J without and the test's bound of an elastic bounce
+/// energy, against 170 J without and the test's bound of an elastic bounce, 750 J
 /// (`tests/hard_cases.rs`). Only the vertex's own contacts: the thin colliders' edge and face
 /// contacts are predicted at the substep's start alone (engaged too, they broke the thin
 /// colliders' tests: redos and a pole that lifted the cloth 10 % too fast).
