@@ -350,17 +350,20 @@ impl<'a> Multigrid<'a> {
             })
     }
 
-    /// The finest level's smoothing diagonal block of vertex `i`: `A_ii`, plus its lumped
-    /// scalar couplings when [`Self::lumped`] (their weights already in `blocks`).
-    fn fine_diagonal(&self, i: usize, d: &Mat3A) -> Result<Mat3A, MgError> {
-        if !self.is_lumped {
-            return Ok(*d);
-        }
-        let n = self.a.diag.len();
-        let w = *part(self.blocks, 6 * n, n)?
-            .get(i)
-            .ok_or(MgError::LengthMismatch)?;
-        Ok(*d + Mat3A::from_diagonal(glam::Vec3::splat(w)))
+    /// The finest level's smoother block of vertex `i` (diagonal block `d`): the inverse of
+    /// `A_ii`, plus its lumped scalar couplings when [`Self::lumped`] (their weights already in
+    /// `blocks`), filtered.
+    fn fine_inverse(&self, i: usize, d: &Mat3A) -> Result<Sym, MgError> {
+        let d = if self.is_lumped {
+            let n = self.a.diag.len();
+            let w = *part(self.blocks, 6 * n, n)?
+                .get(i)
+                .ok_or(MgError::LengthMismatch)?;
+            *d + Mat3A::from_diagonal(glam::Vec3::splat(w))
+        } else {
+            *d
+        };
+        Ok(inverse_sym(&filtered(self.filter, i, &d)))
     }
 
     /// Finest level: `D̂_i⁻¹` for the smoother (after the lumped weights, if any) and the
@@ -373,7 +376,7 @@ impl<'a> Multigrid<'a> {
         }
         self.is_lumped = self.lumped();
         for (i, d) in a.diag.iter().enumerate() {
-            let inv = inverse_sym(&filtered(self.filter, i, &self.fine_diagonal(i, d)?));
+            let inv = self.fine_inverse(i, d)?;
             part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
         }
         if self.count < 2 {
@@ -392,12 +395,8 @@ impl<'a> Multigrid<'a> {
         self.is_lumped = self.lumped();
         for &v in changed {
             let i = v as usize;
-            let d = self.fine_diagonal(i, a.diag.get(i).ok_or(MgError::LengthMismatch)?)?;
-            part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inverse_sym(&filtered(
-                self.filter,
-                i,
-                &d,
-            )));
+            let inv = self.fine_inverse(i, a.diag.get(i).ok_or(MgError::LengthMismatch)?)?;
+            part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
         }
         if self.count < 2 {
             return Ok(());

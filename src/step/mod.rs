@@ -134,7 +134,7 @@ pub(crate) fn substep(
         constrained |= engaged > 0;
         let resume = system::Resume {
             reference: solve.reference,
-            released: (released + engaged) as usize,
+            changed: (released + engaged) as usize,
             operators_kept,
         };
         let more = system::solve(a, c, st, sub.h, constrained, Some(resume))?;

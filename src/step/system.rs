@@ -79,9 +79,9 @@ pub(crate) struct Resume {
     pub reference: f64,
     /// How many vertices were let go or newly held; their indices are the first `u32`s of
     /// `a.w_s`, which `contacts::release` and `contacts::engage` wrote there.
-    pub released: usize,
+    pub changed: usize,
     /// The earlier solve left its multilevel operators in the lent pools (it did not fall
-    /// back to block Jacobi), so only what the released vertices touch is set up again.
+    /// back to block Jacobi), so only what the listed vertices touch is set up again.
     pub operators_kept: bool,
 }
 
@@ -163,8 +163,8 @@ pub(crate) fn solve(
         let built = match resume {
             Some(r) if r.operators_kept => {
                 let listed: &[u32] = bytemuck::cast_slice(live(a.w_s, n)?);
-                let released = listed.get(..r.released).ok_or(StepError::SolverBreakdown)?;
-                multigrid::Multigrid::renew(mem, op, filter, released, options)
+                let changed = listed.get(..r.changed).ok_or(StepError::SolverBreakdown)?;
+                multigrid::Multigrid::renew(mem, op, filter, changed, options)
             }
             _ => multigrid::Multigrid::new(mem, op, filter, options),
         };

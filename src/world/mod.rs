@@ -1078,7 +1078,8 @@ impl<'a> World<'a> {
         let mut previous_gain = None;
         let stats = loop {
             let attempt = self.run_substeps(dt, substeps, solver, tolerance);
-            let redo = redone < monitor::MAX_REDOS && substeps <= Settings::MAX_SUBSTEPS / 2;
+            let room = substeps <= Settings::MAX_SUBSTEPS / 2;
+            let redo = redone < monitor::MAX_REDOS && room;
             let mut stats = match attempt {
                 Ok(stats) => stats,
                 // A solve that broke down or a state that overflowed is the substep's size as
@@ -1116,8 +1117,7 @@ impl<'a> World<'a> {
                 self.level = Some(end);
                 break stats;
             }
-            let converging = substeps <= Settings::MAX_SUBSTEPS / 2
-                && monitor::converging(redone, gain, previous_gain);
+            let converging = room && monitor::converging(redone, gain, previous_gain);
             if redo || converging {
                 previous_gain = Some(gain);
                 // Redo from the start with half the substep, and after converged solves at a
