@@ -1170,50 +1170,106 @@ pub(crate) fn resolve(
     st: &Settings,
     sub: Substep,
 ) -> Result<(u32, f64), StepError> {
-    let (n, h) = (c.n, sub.h);
     let pins = pins_on(c, st);
     let mut contacts = 0;
     let mut work = 0.0f64;
-    // The projection below moves vertices by position. Where a moving collider pushes, or a
-    // vertex began the substep inside a collider (the engine put it there, or a collider
-    // appeared around it) and is put back beyond the depenetration speed, that is work done
-    // on the cloth from outside: the potential energy it changes is input to the energy
-    // balance (measured, as it can be far from linear). A still collider's projection of a
-    // vertex that entered during the substep is not input: a gain there is the step's own.
-    let driven = collide_on(c, st) && projection_is_driven(a, c, st, sub)?;
-    let potential_before = if driven {
-        monitor::potential(a, c, st)?
-    } else {
-        0.0
-    };
     if collide_on(c, st) {
-        let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
-        let held = live(a.pin_of, n)?
-            .iter()
-            .zip(live(a.mass, n)?)
-            .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
-        let moving = live_mut(a.x, n)?
-            .iter_mut()
-            .zip(live_mut(a.v, n)?.iter_mut())
-            .zip(live_mut(a.contact, n)?.iter_mut());
-        for (((&pin, &mass), (&aq, &b)), ((xi, vi), contact)) in held.zip(moving) {
-            if pins && pin != mesh::NONE {
-                continue;
-            }
-            let mut touched = false;
-            let v_before = *vi;
-            let mut vs_held = Vec3A::ZERO;
+        // The projection moves vertices by position. Where a moving collider pushes, or a
+        // vertex began the substep deeper inside a collider than its contact could push it
+        // out of (the engine put it there, or a collider appeared around it), that is work
+        // done on the cloth from outside: the potential energy those pushes change is input
+        // to the energy balance (measured, as it can be far from linear). A still collider's
+        // projection of a vertex that entered during the substep is not input: a gain there
+        // is the step's own, whatever else moves. So the still projections come first, and
+        // only what the pushes change after them is counted.
+        let (still_contacts, still_work, pushes) = project(a, c, st, sub, Pass::Still)?;
+        contacts += still_contacts;
+        work += still_work;
+        if pushes {
+            let before = monitor::potential(a, c, st)?;
+            let (pushed_contacts, pushed_work, _) = project(a, c, st, sub, Pass::Pushes)?;
+            contacts += pushed_contacts;
+            work += pushed_work;
+            // What the pushes put in. Where they took potential energy out instead, that is
+            // the step's loss, not negative input: counted, it let the balance demand that
+            // loss back from the rest of the step (an outside fuzzer's 9×9 cloth inside
+            // oscillating colliders: a 378 J stretch projected away, read as −378 J of input,
+            // and every later step refused).
+            work += (monitor::potential(a, c, st)? - before).max(0.0);
+        }
+    }
+    if pins {
+        place_pins(a, c, sub.t)?;
+    }
+    Ok((contacts, work))
+}
+
+/// Which projections a pass of [`project`] makes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    /// Friction, and the projections that are the step's own: out of still colliders, of
+    /// vertices that entered them during the substep.
+    Still,
+    /// The pushes: out of moving colliders, and out of any collider a vertex began the
+    /// substep deeper inside than `0.1·thickness + h·max_depenetration_speed`.
+    Pushes,
+}
+
+/// One pass of the projection (see [`Pass`]) over the free vertices. Returns the vertices it
+/// newly touched (the second pass does not count those the first touched), the kinetic work
+/// (J) moving surfaces did through the velocity they changed, and whether it left a push for
+/// the second pass (the first pass marks the vertices in `a.w_p` and keeps where each began
+/// the substep in `a.w_c`: both are free between the solve and the next substep).
+fn project(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+    pass: Pass,
+) -> Result<(u32, f64, bool), StepError> {
+    let (n, h) = (c.n, sub.h);
+    let pins = pins_on(c, st);
+    let mut pushes_left = false;
+    let (mut contacts, mut work) = (0u32, 0.0f64);
+    let depth_limit =
+        |col: &collide::Collider| 0.1 * col.thickness + h * st.max_depenetration_speed;
+    let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
+    let held = live(a.pin_of, n)?
+        .iter()
+        .zip(live(a.mass, n)?)
+        .zip(live(a.w_q, n)?.iter().zip(live(a.rhs, n)?));
+    let moving = live_mut(a.x, n)?
+        .iter_mut()
+        .zip(live_mut(a.v, n)?.iter_mut())
+        .zip(live_mut(a.contact, n)?.iter_mut())
+        .zip(
+            live_mut(a.w_c, n)?
+                .iter_mut()
+                .zip(live_mut(a.w_p, n)?.iter_mut()),
+        );
+    for (((&pin, &mass), (&aq, &b)), (((xi, vi), contact), (mark, seen))) in held.zip(moving) {
+        if pins && pin != mesh::NONE {
+            continue;
+        }
+        let mut touched = false;
+        let v_before = *vi;
+        // where the vertex began the substep: x was just advanced by exactly h v (the first
+        // pass; the second reads the mark the first left)
+        let start = *xi - *vi * h;
+        let mut vs_held = Vec3A::ZERO;
+        if pass == Pass::Still {
+            *mark = start;
             // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
-            // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a sliding
-            // one loses at most `μ J_n / m` of its tangential velocity relative to the surface.
-            // It sticks again once that stops it *and* the static cone holds its own load (the
-            // tangential part of `rhs`, the impulse of its forces over the substep). Without
-            // the second test a vertex whose neighbours pull it along cycled: held, it needs more
-            // than `μ J_n` (the hold also stops the neighbours it drags), so it slides; sliding
-            // alone, its velocity is small enough for `μ J_n / m` to stop it, so it sticks. Each
-            // cycle moved it by `h v_t`: a drape let go at its rim crept at ~1 mm/s forever
-            // (41×41 on a sphere, 50 such vertices per step). On a uniform incline both tests
-            // are Coulomb's `tan θ ≤ μ`.
+            // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a
+            // sliding one loses at most `μ J_n / m` of its tangential velocity relative to the
+            // surface. It sticks again once that stops it *and* the static cone holds its own
+            // load (the tangential part of `rhs`, the impulse of its forces over the substep).
+            // Without the second test a vertex whose neighbours pull it along cycled: held, it
+            // needs more than `μ J_n` (the hold also stops the neighbours it drags), so it
+            // slides; sliding alone, its velocity is small enough for `μ J_n / m` to stop it,
+            // so it sticks. Each cycle moved it by `h v_t`: a drape let go at its rim crept at
+            // ~1 mm/s forever (41×41 on a sphere, 50 such vertices per step). On a uniform
+            // incline both tests are Coulomb's `tan θ ≤ μ`.
             let k = collider_of(*contact);
             if let Some(col) = sweep.colliders.get(k) {
                 let mut spare = None;
@@ -1244,42 +1300,62 @@ pub(crate) fn resolve(
                 vs_held = vs;
                 touched = true;
             }
-            // Projection: nothing ends the substep deeper than `thickness`.
-
-            let mut spare = None;
-            for (k, col) in sweep.colliders.iter().enumerate() {
-                let placed = sweep.placed(k, col, &mut spare);
-                let shape = &placed.after;
-                let vs = placed.surface_velocity(*xi, h);
-                let hit = collide::resolve(shape, vs, col.thickness, col.friction, xi, vi);
-                if hit && vs != Vec3A::ZERO {
-                    vs_held = vs;
-                }
-                touched |= hit;
+        }
+        // The start as the first pass saw it (friction changed `v` since), whether that pass
+        // touched the vertex already, and whether a push reaches it.
+        let (start, counted, pushed) = match pass {
+            Pass::Still => (start, false, false),
+            Pass::Pushes => (*mark, seen.x != 0.0, seen.y != 0.0),
+        };
+        if pass == Pass::Pushes && !pushed {
+            continue;
+        }
+        // Projection: nothing ends the substep deeper than `thickness`. The first pass leaves
+        // the pushes out; a vertex a push reaches goes through every collider again in the
+        // second, so that one pushed into a still collider ends outside it too (that
+        // projection is the push's doing).
+        let mut pushes = false;
+        let mut spare = None;
+        for (k, col) in sweep.colliders.iter().enumerate() {
+            let placed = sweep.placed(k, col, &mut spare);
+            let shape = &placed.after;
+            if shape.proximity(*xi).distance >= col.thickness {
+                continue;
             }
-            if touched && has_flag(*contact, LET_GO) {
-                // it reached a surface after all: the next substep holds it as any other
-                *contact = mesh::NONE;
+            let moving = col.previous != col.shape;
+            if pass == Pass::Still
+                && (moving
+                    || col.thickness - placed.before.proximity(start).distance > depth_limit(col))
+            {
+                pushes = true;
+                continue;
             }
-            if touched && vs_held != Vec3A::ZERO {
-                // a moving surface does work m Δv · v_s through what it changed
-                work += f64::from(mass * (*vi - v_before).dot(vs_held));
+            let vs = placed.surface_velocity(*xi, h);
+            let hit = collide::resolve(shape, vs, col.thickness, col.friction, xi, vi);
+            if hit && vs != Vec3A::ZERO {
+                vs_held = vs;
             }
-            contacts += touched as u32;
+            touched |= hit;
+        }
+        pushes_left |= pushes;
+        if touched && has_flag(*contact, LET_GO) {
+            // it reached a surface after all: the next substep holds it as any other
+            *contact = mesh::NONE;
+        }
+        if touched && vs_held != Vec3A::ZERO {
+            // a moving surface does work m Δv · v_s through what it changed
+            work += f64::from(mass * (*vi - v_before).dot(vs_held));
+        }
+        contacts += (touched && !counted) as u32;
+        if pass == Pass::Still {
+            *seen = Vec3A::new(
+                f32::from(u8::from(touched)),
+                f32::from(u8::from(pushes)),
+                0.0,
+            );
         }
     }
-    if pins {
-        place_pins(a, c, sub.t)?;
-    }
-    if driven {
-        // What the projection put in. Where it took potential energy out instead (it undid a
-        // stretch the substep's own motion made into a collider), that is the step's loss, not
-        // negative input: counted, it let the balance demand that loss back from the rest of the
-        // step (an outside fuzzer's 9×9 cloth inside oscillating colliders: a 378 J stretch
-        // projected away, read as −378 J of input, and every later step refused).
-        work += (monitor::potential(a, c, st)? - potential_before).max(0.0);
-    }
-    Ok((contacts, work))
+    Ok((contacts, work, pushes_left))
 }
 
 /// Puts the pinned vertices on their targets (the held directions of them) as they are at the
@@ -1319,46 +1395,101 @@ fn pins_of<'p>(
     Ok(pinned.map(|((&vertex, &previous), (&target, &free))| (vertex, previous, target, free)))
 }
 
-/// Whether a moving collider will push a vertex out in this substep's projection, or a vertex
-/// began the substep deeper inside a collider than its contact could push it out of.
-fn projection_is_driven(
-    a: &Arrays<'_>,
-    c: &Counts,
-    st: &Settings,
-    sub: Substep,
-) -> Result<bool, StepError> {
-    let pins = pins_on(c, st);
-    let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
-    let vertices = live(a.pin_of, c.n)?
-        .iter()
-        .zip(live(a.x, c.n)?.iter().zip(live(a.v, c.n)?));
-    for (&pin, (&xi, &vi)) in vertices {
-        if pins && pin != mesh::NONE {
-            continue;
-        }
-        // where the vertex began the substep (x was just advanced by exactly h v)
-        let (x, start) = (xi, xi - vi * sub.h);
-        let mut spare = None;
-        for (k, col) in sweep.colliders.iter().enumerate() {
-            let placed = sweep.placed(k, col, &mut spare);
-            if placed.after.proximity(x).distance >= col.thickness {
-                continue;
-            }
-            if col.previous != col.shape {
-                return Ok(true);
-            }
-            let depth = col.thickness - placed.before.proximity(start).distance;
-            if depth > 0.1 * col.thickness + sub.h * st.max_depenetration_speed {
-                return Ok(true);
-            }
-        }
-    }
-    Ok(false)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What the balance credits as input from a substep's projection is what the pushes
+    /// change (a moving collider, here), not a still collider's projection of a vertex that
+    /// the substep itself carried into it, even when both happen in one substep: crediting
+    /// the whole projection hid the still collider's gain from the balance whenever anything
+    /// else moved. A 5×5 sheet at rest: its centre vertex falls 5 cm into a still sphere
+    /// within the substep (projected above its rest height: the stretch and the height it
+    /// gains are the step's own), while a sphere that moved this step overlaps the far corner
+    /// (no element holds both vertices, so the energies of the two projections add).
+    #[test]
+    fn only_the_pushes_of_a_projection_are_input() {
+        use crate::collide::{Collider, Shape};
+        use crate::mesh;
+        use crate::world::{Capacity, ClothDef, Material, Materials, World};
+        let (nx, size) = (5usize, 1.0f32);
+        let n = nx * nx;
+        let mut positions = vec![[0.0f32; 3]; n];
+        let mut uvs = vec![[0.0f32; 2]; n];
+        let mut triangles = vec![[0u32; 3]; 2 * (nx - 1) * (nx - 1)];
+        mesh::grid(nx, nx, size, size, &mut positions, &mut uvs, &mut triangles).unwrap();
+        let materials = vec![0u32; triangles.len()];
+        let mats = [Material {
+            stiffness: [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
+            density: 0.15,
+            bending: 1e-4,
+        }];
+        let def = ClothDef {
+            positions: &positions,
+            uvs: &uvs,
+            triangles: &triangles,
+            materials: &materials,
+        };
+        let cap = Capacity {
+            vertices: n as u32,
+            triangles: triangles.len() as u32,
+            edges: 3 * triangles.len() as u32,
+            colliders: 4,
+            pins: 4,
+        };
+        let (centre, corner) = (2 * nx + 2, n - 1);
+        let h = 1.0 / 60.0;
+        // The credited work, the potential before and after the projection.
+        let project = |still: bool| -> (f64, f64, f64) {
+            let mut mem = vec![0u8; cap.world_bytes()];
+            let mut w = World::new(
+                &mut mem,
+                cap,
+                &def,
+                Materials::Table(&mats),
+                Default::default(),
+            )
+            .unwrap();
+            let mut v = vec![[0.0f32; 3]; n];
+            v[centre] = [0.0, 0.0, -3.0]; // it began the substep 5 cm above where it is
+            w.set_velocities(&v).unwrap();
+            let c = positions[centre];
+            if still {
+                // top 3 cm above the centre vertex, clear of its neighbours (25 cm away)
+                let sphere = Shape::Sphere {
+                    center: Vec3A::new(c[0], c[1], -0.07),
+                    radius: 0.1,
+                };
+                w.add_collider(Collider::new(sphere, 0.0, 0.01)).unwrap();
+            }
+            let p = Vec3A::from(positions[corner]);
+            let at = |dx: f32| Shape::Sphere {
+                center: p + Vec3A::new(dx, 0.0, 0.0),
+                radius: 0.1,
+            };
+            let id = w.add_collider(Collider::new(at(0.2), 0.0, 0.01)).unwrap();
+            w.set_collider_shape(id, at(0.095)).unwrap(); // moved 10.5 cm onto the corner
+            let (a, c, st) = w.stage();
+            let before = monitor::potential(a, &c, &st).unwrap();
+            let sub = Substep { h, t0: 0.0, t: 1.0 };
+            let (_, work) = resolve(a, &c, &st, sub).unwrap();
+            (work, before, monitor::potential(a, &c, &st).unwrap())
+        };
+        let (with_still, before, after) = project(true);
+        let (push_alone, alone_before, alone_after) = project(false);
+        let pushed = alone_after - alone_before;
+        let own = (after - before) - pushed;
+        assert!(
+            pushed > 1e-6,
+            "the push changed the potential by {pushed} J"
+        );
+        assert!(own > 1e-4, "the still projection changed it by {own} J");
+        assert!(
+            (with_still - push_alone).abs() <= 1e-9,
+            "credited {with_still} J with the still sphere, {push_alone} J without (its own \
+             projection: {own} J)"
+        );
+    }
 
     /// An impulse split into the normals that hold a vertex: exact for one, two and three
     /// independent normals; a nearly parallel contact rides on its axis; the contacts to let go

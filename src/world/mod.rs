@@ -1251,6 +1251,13 @@ impl<'a> World<'a> {
         self.refresh_frames(8);
     }
 
+    /// The arrays, counts and settings the step's stages take, for the stages' own tests.
+    #[cfg(test)]
+    pub(crate) fn stage(&mut self) -> (&mut Arrays<'a>, Counts, Settings) {
+        let (c, st) = (self.counts(), self.settings);
+        (&mut self.a, c, st)
+    }
+
     /// The counts the step's stages slice the arrays to.
     fn counts(&self) -> Counts {
         Counts {
