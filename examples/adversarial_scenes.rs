@@ -1146,8 +1146,8 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
                 if trace {
                     let e = w.energy();
                     println!(
-                        "  step {step} ok it={} solves={} res={:.2e} conv={} sub={} redone={} removed={:.3e} gain={:.3e} contacts={} asleep={} E: k={:.6e} el={:.6e} b={:.6e} g={:.6e} tot {:.9e} -> {:.9e} input={input} vmax={:.3e} t={:.2}ms origin={:?}",
-                        s.iterations, s.solves, s.residual, s.converged, s.substeps, s.redone,
+                        "  step {step} ok stopped={} it={} solves={} res={:.2e} conv={} sub={} redone={} removed={:.3e} gain={:.3e} contacts={} asleep={} E: k={:.6e} el={:.6e} b={:.6e} g={:.6e} tot {:.9e} -> {:.9e} input={input} vmax={:.3e} t={:.2}ms origin={:?}",
+                        s.stopped, s.iterations, s.solves, s.residual, s.converged, s.substeps, s.redone,
                         s.energy_removed, s.energy_gain, s.contacts, s.asleep, e.kinetic, e.elastic,
                         e.bending, e.gravity, tot0, e.total(),
                         w.velocities().iter().map(|v| v.length()).fold(0.0, f32::max), el * 1e3,
