@@ -206,7 +206,8 @@ arrays! { cap;
     #[cfg_attr(not(feature = "research"), allow(dead_code))]
     rot: Quat = [cap.r(); Quat::IDENTITY],
     normals: Vec3A = [cap.v(); Vec3A::Z],
-    /// Right-hand side, solution (warm start) and PCG work vectors.
+    /// Right-hand side, solution (warm start) and PCG work vectors (`w_c` and `w_p` then hold
+    /// the projection's marks of each vertex, see `contacts::resolve`, until the next solve).
     rhs: Vec3A = [cap.v(); Vec3A::ZERO],
     dv: Vec3A = [cap.v(); Vec3A::ZERO],
     w_r: Vec3A = [cap.v(); Vec3A::ZERO],
