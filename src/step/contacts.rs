@@ -1253,12 +1253,11 @@ fn project(
         }
         let mut touched = false;
         let v_before = *vi;
-        // where the vertex began the substep: x was just advanced by exactly h v (the first
-        // pass; the second reads the mark the first left)
-        let start = *xi - *vi * h;
         let mut vs_held = Vec3A::ZERO;
         if pass == Pass::Still {
-            *mark = start;
+            // where the vertex began the substep: x was just advanced by exactly h v (friction
+            // changes v below, so the second pass reads it here)
+            *mark = *xi - *vi * h;
             // Coulomb friction from the solve's own contact impulse `J = A Δv − rhs` (`a.w_q`
             // holds `A Δv`): a sticking contact keeps sticking while `|J_t| ≤ μ J_n`; a
             // sliding one loses at most `μ J_n / m` of its tangential velocity relative to the
@@ -1301,11 +1300,12 @@ fn project(
                 touched = true;
             }
         }
-        // The start as the first pass saw it (friction changed `v` since), whether that pass
-        // touched the vertex already, and whether a push reaches it.
-        let (start, counted, pushed) = match pass {
-            Pass::Still => (start, false, false),
-            Pass::Pushes => (*mark, seen.x != 0.0, seen.y != 0.0),
+        // Whether the first pass touched the vertex already, and whether a push reaches it
+        // (`seen`'s x and y, written below).
+        let start = *mark;
+        let (counted, pushed) = match pass {
+            Pass::Still => (false, false),
+            Pass::Pushes => (seen.x != 0.0, seen.y != 0.0),
         };
         if pass == Pass::Pushes && !pushed {
             continue;
