@@ -1406,7 +1406,8 @@ mod tests {
     /// else moved. A 5×5 sheet at rest: its centre vertex falls 5 cm into a still sphere
     /// within the substep (projected above its rest height: the stretch and the height it
     /// gains are the step's own), while a sphere that moved this step overlaps the far corner
-    /// (no element holds both vertices, so the energies of the two projections add).
+    /// (no element holds both vertices, so the energies of the two projections add), which
+    /// also rests a little inside another still sphere.
     #[test]
     fn only_the_pushes_of_a_projection_are_input() {
         use crate::collide::{Collider, Shape};
@@ -1439,8 +1440,9 @@ mod tests {
         };
         let (centre, corner) = (2 * nx + 2, n - 1);
         let h = 1.0 / 60.0;
-        // The credited work, the potential before and after the projection.
-        let project = |still: bool| -> (f64, f64, f64) {
+        // The credited work, the potential before and after the projection, the vertices
+        // touching a collider.
+        let project = |still: bool| -> (f64, f64, f64, u32) {
             let mut mem = vec![0u8; cap.world_bytes()];
             let mut w = World::new(
                 &mut mem,
@@ -1463,6 +1465,13 @@ mod tests {
                 w.add_collider(Collider::new(sphere, 0.0, 0.01)).unwrap();
             }
             let p = Vec3A::from(positions[corner]);
+            // The corner rests 3 mm inside a still sphere too (not deep: the first pass puts
+            // it back), so both passes touch it.
+            let under = Shape::Sphere {
+                center: p - Vec3A::new(0.0, 0.0, 0.047),
+                radius: 0.05,
+            };
+            w.add_collider(Collider::new(under, 0.0, 0.01)).unwrap();
             let at = |dx: f32| Shape::Sphere {
                 center: p + Vec3A::new(dx, 0.0, 0.0),
                 radius: 0.1,
@@ -1472,11 +1481,18 @@ mod tests {
             let (a, c, st) = w.stage();
             let before = monitor::potential(a, &c, &st).unwrap();
             let sub = Substep { h, t0: 0.0, t: 1.0 };
-            let (_, work) = resolve(a, &c, &st, sub).unwrap();
-            (work, before, monitor::potential(a, &c, &st).unwrap())
+            let (touching, work) = resolve(a, &c, &st, sub).unwrap();
+            (
+                work,
+                before,
+                monitor::potential(a, &c, &st).unwrap(),
+                touching,
+            )
         };
-        let (with_still, before, after) = project(true);
-        let (push_alone, alone_before, alone_after) = project(false);
+        let (with_still, before, after, touching) = project(true);
+        let (push_alone, alone_before, alone_after, touching_alone) = project(false);
+        // each vertex counted once, whichever passes touched it (the corner: both)
+        assert_eq!((touching, touching_alone), (2, 1));
         let pushed = alone_after - alone_before;
         let own = (after - before) - pushed;
         assert!(
