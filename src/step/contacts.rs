@@ -843,7 +843,7 @@ pub(crate) fn constrain(
 /// is let go, and the caller solves again from the current `Δv` (`a.w_q` must hold `A Δv`). A
 /// vertex no contact holds any more is free, and from the next substep on it is held only
 /// where its own motion reaches a surface ([`LET_GO`]). Returns how many vertices changed
-/// (listed in `a.w_s`).
+/// (listed in `a.w_s`, in ascending order: [`engage`] searches it).
 ///
 /// Why: a held vertex moves along the normal exactly as its contact prescribes: the surface's
 /// velocity, or toward the surface within the slop. Where the membrane would lift it faster,
@@ -948,7 +948,9 @@ fn engage_reaching(
                 hold.primary = Some((k, touch.vs));
             }
         }
-        if hold.held.count == 0 || just_released.contains(&(i as u32)) {
+        // `release` lists its vertices in ascending order: a search, not a scan per vertex
+        // (a scan made many catches among many releases quadratic)
+        if hold.held.count == 0 || just_released.binary_search(&(i as u32)).is_ok() {
             continue;
         }
         *contact = hold.state(*contact);
