@@ -94,6 +94,22 @@ impl Shape {
         }
     }
 
+    /// How far [`Shape::proximity`]'s distance at `p` may be from the true one by the `f32`
+    /// rounding of the coordinates it is computed from: a few units in the last place of the
+    /// largest of them. A point [`resolve`] put on the offset surface is on it to within this,
+    /// above as often as below.
+    #[inline]
+    pub fn rounding(&self, p: Vec3A) -> f32 {
+        let scale = match *self {
+            Shape::Plane { offset, .. } => offset.abs(),
+            Shape::Sphere { center, radius } | Shape::Shell { center, radius } => {
+                center.abs().max_element() + radius
+            }
+            Shape::Capsule { a, b, radius } => a.abs().max(b.abs()).max_element() + radius,
+        };
+        4.0 * f32::EPSILON * (p.abs().max_element() + scale)
+    }
+
     /// `proximity(p).distance < thickness`, without the square root and the normal where the
     /// shape allows (the per-vertex test of collision-aware localization).
     #[inline]
@@ -616,6 +632,58 @@ mod tests {
         assert!((p.distance - 0.5).abs() < 1e-6 && (p.normal - Vec3A::Y).length() < 1e-6);
         let p = c.proximity(Vec3A::new(3.0, 0.0, 0.0));
         assert!((p.distance - 0.5).abs() < 1e-6 && (p.normal - Vec3A::X).length() < 1e-6);
+    }
+
+    /// What `rounding` promises: a point `resolve` put on a shape's offset surface is on it
+    /// to within the rounding (above as well as below), for every kind of shape, near the
+    /// origin and away from it (the contact slop relies on it).
+    #[test]
+    fn a_projected_point_is_on_the_surface_within_the_rounding() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut draw = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let (mut above, mut below) = (0, 0);
+        for scale in [0.01f32, 1.0, 30.0] {
+            for _ in 0..2000 {
+                let v3 = |draw: &mut dyn FnMut() -> f32| Vec3A::new(draw(), draw(), draw()) * scale;
+                let (c, d) = (v3(&mut draw), v3(&mut draw));
+                let radius = scale * (0.1 + draw().abs());
+                let normal = Vec3A::new(draw(), draw(), draw() + 2.0).normalize();
+                let shapes = [
+                    Shape::Plane {
+                        normal,
+                        offset: c.x,
+                    },
+                    Shape::Sphere { center: c, radius },
+                    Shape::Shell { center: c, radius },
+                    Shape::Capsule { a: c, b: d, radius },
+                ];
+                let thickness = [0.0, 1e-3 * scale][usize::from(draw() > 0.0)];
+                for shape in shapes {
+                    // a point a little inside the offset surface
+                    let mut x = c + v3(&mut draw) * 0.5;
+                    let prox = shape.proximity(x);
+                    x -= prox.normal * (prox.distance - thickness + 0.01 * scale * draw().abs());
+                    let mut v = Vec3A::ZERO;
+                    if !resolve(&shape, Vec3A::ZERO, thickness, 0.0, &mut x, &mut v) {
+                        continue;
+                    }
+                    let off = shape.proximity(x).distance - thickness;
+                    assert!(
+                        off.abs() <= shape.rounding(x),
+                        "{shape:?}: {off:e} off the surface, rounding {:e}",
+                        shape.rounding(x)
+                    );
+                    above += usize::from(off > 0.0);
+                    below += usize::from(off < 0.0);
+                }
+            }
+        }
+        assert!(above > 100 && below > 100, "{above} above, {below} below");
     }
 
     #[test]
