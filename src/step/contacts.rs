@@ -484,7 +484,7 @@ impl Scene<'_> {
     /// Whether a free vertex at `p` whose solve gave it the end velocity `end` reaches `col`
     /// within the substep by that motion, by little enough to be held ([`engage`]): its
     /// predicted end lies inside the offset surface by at most the contact slop (what the
-    /// prediction at the substep's start holds above it) or what the depenetration speed
+    /// prediction at the substep's start holds above it, [`Scene::slop`]) or what the depenetration speed
     /// moves in a substep, whichever is more. The hold lands it on the offset surface, moving
     /// with it: it approaches no faster than that asks, and no faster than `end` already does;
     /// a vertex inside is pushed out no faster than the depenetration speed.
@@ -496,7 +496,7 @@ impl Scene<'_> {
         let nrm = prox.normal;
         let approach = (end - vs).dot(nrm);
         let overshoot = col.thickness - (prox.distance + h * approach);
-        let band = (col.thickness * 0.1 + self.slop_fall).max(h * self.max_depenetration_speed);
+        let band = self.slop(placed, p).max(h * self.max_depenetration_speed);
         if !(overshoot > 0.0 && overshoot <= band) {
             return None;
         }
