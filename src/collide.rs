@@ -97,7 +97,8 @@ impl Shape {
     /// How far [`Shape::proximity`]'s distance at `p` may be from the true one by the `f32`
     /// rounding of the coordinates it is computed from: a few units in the last place of the
     /// largest of them. A point [`resolve`] put on the offset surface is on it to within this,
-    /// above as often as below.
+    /// above it as well as below (the factor 4 is what the test of that measures, not a bound
+    /// derived for every shape's formula).
     #[inline]
     pub fn rounding(&self, p: Vec3A) -> f32 {
         let scale = match *self {
