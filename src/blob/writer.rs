@@ -1,5 +1,5 @@
 //! The cell blob's writer (`std`): [`CellRecord`] (the owned cell, and [`Cell::to_record`] back
-//! from a view), [`write`] (the reader's per-cell validation, then the version-1 layout of
+//! from a view), [`write()`] (the reader's per-cell validation, then the version-1 layout of
 //! `docs/BLOB.md`), [`AlignedBytes`] and [`load_aligned`] (bytes aligned for the in-place reader).
 
 // The writer indexes buffers whose lengths it computed itself from validated records; a panic

@@ -211,7 +211,7 @@ pub fn world_key(world: &World<'_>) -> u64 {
     world.rest_positions().as_ptr() as usize as u64
 }
 
-/// Binds `fine_uv` to the world's cloth ([`bind`]) into a bindings block: the header (with
+/// Binds `fine_uv` to the world's cloth ([`bind()`]) into a bindings block: the header (with
 /// `cloth_key`, from [`cloth_key`]) and one record per fine vertex. Everything is checked
 /// before anything is written; bytes past the records are left alone.
 pub fn bind_block(

@@ -2,9 +2,10 @@
 //!
 //! The fine reference is the cells' own micro meshes tiled over the whole sheet
 //! ([`weft::cell::mesh_sheet`]), each fine triangle with its pixel's material `C` (not `C^H`),
-//! stepped by the very same [`World`] as the coarse cloth: `Materials::Table` over the cell's
-//! materials instead of `Materials::Blob`. There is no second copy of the physics; this module
-//! only owns the arrays (`Vec`s) and says how big a world they need.
+//! stepped by the very same [`World`](weft::world::World) as the coarse cloth:
+//! `Materials::Table` over the cell's materials instead of `Materials::Blob`. There is no
+//! second copy of the physics; this module only owns the arrays (`Vec`s) and says how big a
+//! world they need.
 
 use weft::cell::{mesh_sheet, CellDesc};
 use weft::world::{Capacity, ClothDef, Material};
