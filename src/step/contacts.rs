@@ -1445,13 +1445,7 @@ mod tests {
             triangles: &triangles,
             materials: &materials,
         };
-        let cap = Capacity {
-            vertices: n as u32,
-            triangles: triangles.len() as u32,
-            edges: 3 * triangles.len() as u32,
-            colliders: 4,
-            pins: 4,
-        };
+        let cap = Capacity::grid(nx as u32);
         let (centre, corner) = (2 * nx + 2, n - 1);
         let h = 1.0 / 60.0;
         // The credited work, the potential before and after the projection, the vertices
