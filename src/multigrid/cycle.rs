@@ -185,6 +185,8 @@ fn tri(r: usize, c: usize) -> usize {
 /// [`crate::pcg::solve_with`].
 pub struct Multigrid<'a> {
     agg0: &'a [u32],
+    /// Where each finest-level coupling lands in level 1's operator (see [`index_len`]).
+    map0: &'a [u32],
     index: &'a [u32],
     blocks: &'a mut [f32],
     dense: &'a mut [f64],
@@ -278,9 +280,18 @@ impl<'a> Multigrid<'a> {
         for lv in h.levels.iter().take(h.count.saturating_sub(1)).skip(1) {
             part(index, lv.agg, lv.n)?;
         }
+        if !a.scalars.is_empty() && a.scalars.pattern.nnz() != h.scalars {
+            return Err(MgError::NotBuilt);
+        }
+        let map0 = if h.count > 1 {
+            part(index, HEADER, l0.nnz + h.scalars)?
+        } else {
+            &[]
+        };
         let agg0 = agg.get(..n).ok_or(MgError::LengthMismatch)?;
         let mut mg = Multigrid {
             agg0,
+            map0,
             index,
             blocks: &mut *blocks,
             dense: &mut *dense,
@@ -305,6 +316,7 @@ impl<'a> Multigrid<'a> {
             levels: self.levels,
             count: self.count,
             dense: self.is_dense,
+            scalars: self.map0.len().saturating_sub(self.a.pattern.nnz()),
         })
     }
 
@@ -384,7 +396,8 @@ impl<'a> Multigrid<'a> {
         }
         let l1 = self.level(1)?;
         let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
-        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, None)
+        let cp = coarse_pattern(self.index, &l1)?;
+        galerkin_fine(a, self.filter, self.agg0, self.map0, &cp, ops, None)
     }
 
     /// [`Self::setup_fine`] after a change of the filter at the vertices `changed` only (see
@@ -413,7 +426,8 @@ impl<'a> Multigrid<'a> {
             *flags.get_mut(big as usize).ok_or(MgError::Internal)? = 1;
         }
         let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
-        galerkin_fine(a, self.filter, self.agg0, self.index, &l1, ops, Some(flags))
+        let cp = coarse_pattern(self.index, &l1)?;
+        galerkin_fine(a, self.filter, self.agg0, self.map0, &cp, ops, Some(flags))
     }
 
     /// Level `l ≥ 1`: its block inverses and the Galerkin operator of level `l + 1`.
@@ -437,10 +451,7 @@ impl<'a> Multigrid<'a> {
         let agg = part(self.index, lv.agg, lv.n)?;
         let rs = part(self.index, lv.rs, lv.n + 1)?;
         let cols = part(self.index, lv.cols, lv.nnz)?;
-        let cp = Pattern {
-            row_start: part(self.index, next.rs, next.n + 1)?,
-            cols: part(self.index, next.cols, next.nnz)?,
-        };
+        let cp = coarse_pattern(self.index, &next)?;
         let nops = tail
             .get_mut(next.blk - (lv.blk + 12 * lv.n + 9 * lv.nnz)..)
             .and_then(|t| t.get_mut(..12 * next.n + 9 * next.nnz))
@@ -1128,6 +1139,14 @@ fn level_ops<'b>(
     ))
 }
 
+/// The coupling pattern of coarse level `lv` (strictly upper CSR).
+fn coarse_pattern<'b>(index: &'b [u32], lv: &Level) -> Result<Pattern<'b>, MgError> {
+    Ok(Pattern {
+        row_start: part(index, lv.rs, lv.n + 1)?,
+        cols: part(index, lv.cols, lv.nnz)?,
+    })
+}
+
 /// Vertex `i`'s filtered diagonal block `S A_ii S + τ (I − S)`: the constrained directions
 /// get the block's own scale so the inverse is well conditioned; they are decoupled anyway.
 fn filtered(filter: Option<&[Mat3A]>, i: usize, d: &Mat3A) -> Mat3A {
@@ -1147,24 +1166,23 @@ fn filtered(filter: Option<&[Mat3A]>, i: usize, d: &Mat3A) -> Mat3A {
 
 /// The Galerkin operator of level 1, `Pᵀ (S A S) P`, into `ops` (level 1's diagonal and
 /// coupling blocks; its inverses are left to `setup_coarse`): the blocks start from zero and
-/// one pass over the fine blocks and scalar couplings, in vertex order, sums into them. With
-/// `only`, just the blocks of which either aggregate is flagged: they then start from zero and
-/// receive exactly the sums, in exactly the order, of a full pass; the others are kept.
+/// one pass over the fine blocks and scalar couplings, in vertex order, sums into them where
+/// the build's coupling map `map` says. With `only`, just the blocks of which either aggregate
+/// is flagged: they then start from zero and receive exactly the sums, in exactly the order,
+/// of a full pass; the others are kept.
 fn galerkin_fine(
     a: BlockMatrix<'_>,
     filter: Option<&[Mat3A]>,
     agg: &[u32],
-    index: &[u32],
-    l1: &Level,
+    map: &[u32],
+    cp: &Pattern<'_>,
     ops: &mut [f32],
     only: Option<&[u32]>,
 ) -> Result<(), MgError> {
-    let cp = Pattern {
-        row_start: part(index, l1.rs, l1.n + 1)?,
-        cols: part(index, l1.cols, l1.nnz)?,
-    };
-    let (cdiag, rest) = ops.split_at_mut(6 * l1.n);
-    let coff = rest.get_mut(6 * l1.n..).ok_or(MgError::Internal)?;
+    let n1 = cp.n();
+    let (cdiag, rest) = ops.split_at_mut((6 * n1).min(ops.len()));
+    let coff = rest.get_mut(6 * n1..).ok_or(MgError::Internal)?;
+    let (map_blocks, map_scalars) = map.split_at(a.pattern.nnz().min(map.len()));
     let wanted = |big_i: u32, big_j: u32| {
         only.is_none_or(|f| {
             f.get(big_i as usize).is_some_and(|&x| x != 0)
@@ -1211,7 +1229,8 @@ fn galerkin_fine(
                 (None, None) => *m,
                 (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
             };
-            accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+            let code = *map_blocks.get(k).ok_or(MgError::Internal)?;
+            place(cdiag, coff, code, big_i as usize, &f)?;
         }
     }
     // The scalar couplings `c s_ij I3` (`S_i S_j` between filters).
@@ -1229,9 +1248,34 @@ fn galerkin_fine(
                     (None, None) => Mat3A::from_diagonal(glam::Vec3::splat(v)),
                     (a, b) => a.unwrap_or(Mat3A::IDENTITY) * b.unwrap_or(Mat3A::IDENTITY) * v,
                 };
-                accumulate(cdiag, coff, &cp, big_i as usize, big_j as usize, &f)?;
+                let code = *map_scalars.get(k).ok_or(MgError::Internal)?;
+                place(cdiag, coff, code, big_i as usize, &f)?;
             }
         }
+    }
+    Ok(())
+}
+
+/// Adds the fine coupling block `f` of a vertex of aggregate `i` to the coarse operator,
+/// where its `code` in the coupling map says: both (i, i) and its transpose into `i`'s
+/// diagonal block ([`SAME`]: `2 sym(f)`), or `f` (`fᵀ`, [`TRANSPOSED`]) into a coupling block.
+#[inline(always)]
+fn place(
+    cdiag: &mut [f32],
+    coff: &mut [f32],
+    code: u32,
+    i: usize,
+    f: &Mat3A,
+) -> Result<(), MgError> {
+    if code == SAME {
+        sym_add(part_mut(cdiag, 6 * i, 6)?, f, 2.0);
+    } else if code & TRANSPOSED == 0 {
+        add_mat(part_mut(coff, 9 * code as usize, 9)?, f);
+    } else {
+        add_mat(
+            part_mut(coff, 9 * (code & !TRANSPOSED) as usize, 9)?,
+            &f.transpose(),
+        );
     }
     Ok(())
 }

@@ -64,7 +64,10 @@ pub fn build(
     if u32::try_from(index.len()).is_err() || u32::try_from(blocks_cap).is_err() {
         return Err(MgError::MemoryTooSmall); // offsets are stored as u32
     }
-    let (head, pool) = index.split_at_mut(HEADER);
+    // The header, the finest level's coupling map (filled once level 1 exists), the pool.
+    let base = HEADER + all;
+    let (head, rest) = index.split_at_mut(HEADER);
+    let (map, pool) = rest.split_at_mut(all);
     head.fill(0);
 
     let mut levels = [Level::default(); MAX_LEVELS];
@@ -140,13 +143,21 @@ pub fn build(
     count = keep;
     let coarsest = levels.get(count - 1).ok_or(MgError::Internal)?;
     let is_dense = count > 1 && coarsest.n <= MAX_DENSE;
+    if count > 1 {
+        let l1 = levels.get(1).ok_or(MgError::Internal)?;
+        let coarse = Pattern {
+            row_start: part(pool, l1.rs, l1.n + 1)?,
+            cols: part(pool, l1.cols, l1.nnz)?,
+        };
+        map_couplings(pattern, scalars, agg0, &coarse, map)?;
+    }
     // Offsets are relative to `pool`; make them relative to `index`.
     for lv in levels.iter_mut().take(count).skip(1) {
-        lv.agg += HEADER;
-        lv.rs += HEADER;
-        lv.cols += HEADER;
+        lv.agg += base;
+        lv.rs += base;
+        lv.cols += base;
     }
-    let words = [MAGIC, count as u32, is_dense as u32, 0];
+    let words = [MAGIC, count as u32, is_dense as u32, scalars.nnz() as u32];
     for (h, w) in head.iter_mut().zip(words) {
         *h = w;
     }
@@ -156,6 +167,40 @@ pub fn build(
     }
     let h = read_header(index).ok_or(MgError::Internal)?;
     Ok(info_of(&h))
+}
+
+/// Where each coupling of the finest level lands in level 1's operator (see [`index_len`]):
+/// for the block pattern's entries in order, then the scalar pattern's, the coarse block
+/// `(I, J)` of their aggregates, [`TRANSPOSED`] when `I > J`, or [`SAME`].
+fn map_couplings(
+    pattern: &Pattern<'_>,
+    scalars: &Pattern<'_>,
+    agg: &[u32],
+    coarse: &Pattern<'_>,
+    map: &mut [u32],
+) -> Result<(), MgError> {
+    let nnz = pattern.nnz();
+    let (blocks, rest) = map.split_at_mut(nnz.min(map.len()));
+    for (p, out) in [(pattern, blocks), (scalars, rest)] {
+        for i in 0..p.n() {
+            let big_i = *agg.get(i).ok_or(MgError::Internal)? as usize;
+            for (k, j) in p.upper(i) {
+                let big_j = *agg.get(j).ok_or(MgError::Internal)? as usize;
+                let (slot, flag) = match big_i.cmp(&big_j) {
+                    core::cmp::Ordering::Equal => (Some(SAME as usize), 0),
+                    core::cmp::Ordering::Less => (coarse.find(big_i, big_j), 0),
+                    core::cmp::Ordering::Greater => (coarse.find(big_j, big_i), TRANSPOSED),
+                };
+                let code = match slot {
+                    Some(k) if k == SAME as usize => SAME,
+                    Some(k) if k < TRANSPOSED as usize => k as u32 | flag,
+                    _ => return Err(MgError::Internal),
+                };
+                *out.get_mut(k).ok_or(MgError::Internal)? = code;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// One coarsening step of the level with pattern `p` and the scalar couplings' pattern

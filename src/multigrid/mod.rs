@@ -23,7 +23,9 @@
 //! reached, coarsening stalls (fewer than 10% fewer vertices, e.g. a mesh of isolated vertices)
 //! or the caller's pools are full; a coarsest level above [`MAX_DENSE`] vertices is smoothed
 //! instead of solved ([`Options::coarse_sweeps`]). The coarse patterns live in the pools; so
-//! does everything else, see [`Memory`].
+//! does everything else, see [`Memory`], including where each fine coupling lands in level 1's
+//! operator (a `u32` per coupling), so that no solve searches the coarse pattern for it: the
+//! binary search per fine coupling was a fifth of every setup's instructions.
 //!
 //! # Operators (every solve, [`Multigrid::new`])
 //!
@@ -132,9 +134,15 @@ const DENSE_LEN: usize = DENSE_DOF * (DENSE_DOF + 1) / 2;
 const MAGIC: u32 = 0x4d47_0001;
 /// Per level: n, nnz, agg, rs, cols, blk, vec (see [`Level`]).
 const LEVEL_WORDS: usize = 7;
-/// magic, levels, dense flag, reserved, then the levels.
+/// magic, levels, dense flag, the finest level's scalar couplings, then the levels.
 const HEADER: usize = 4 + LEVEL_WORDS * MAX_LEVELS;
 const NONE: u32 = u32::MAX;
+/// In the finest level's coupling map ([`index_len`]): both vertices lie in one aggregate, so
+/// the coupling lands in its diagonal block.
+const SAME: u32 = u32::MAX;
+/// In the finest level's coupling map: the coupling lands in the coarse block `(J, I)`,
+/// transposed (its aggregates are in the other order).
+const TRANSPOSED: u32 = 1 << 31;
 const PASS2: u32 = 1 << 31;
 /// Relative ridge added to a coarse diagonal block before inverting it (bounds its condition
 /// number by ~1e6 so that the `f32` inverse stays SPD; zero for all practical blocks).
@@ -165,12 +173,15 @@ const fn coarse_couplings(couplings: usize) -> usize {
 }
 
 /// `u32` entries of [`Memory::index`] for a fine level of `vertices` vertices and
-/// `couplings` off-diagonal blocks (the strictly-upper pattern entries): the header, the
-/// coarse levels' aggregate maps and the coarse patterns. (The finest level's aggregate map,
-/// `vertices` entries, is [`Memory::agg`].)
+/// `couplings` off-diagonal blocks (the strictly-upper pattern entries of the block and the
+/// scalar patterns): the header; where each fine coupling lands in level 1's operator (its
+/// coarse block, [`SAME`] or [`TRANSPOSED`]: every solve's Galerkin sum then looks nothing
+/// up); the coarse levels' aggregate maps and the coarse patterns. (The finest level's
+/// aggregate map, `vertices` entries, is [`Memory::agg`].)
 pub const fn index_len(vertices: usize, couplings: usize) -> usize {
     let cv = coarse_vertices(vertices);
     HEADER
+        .saturating_add(couplings)
         .saturating_add(cv.saturating_mul(2))
         .saturating_add(MAX_LEVELS)
         .saturating_add(coarse_couplings(couplings))
@@ -406,6 +417,9 @@ struct Header {
     levels: [Level; MAX_LEVELS],
     count: usize,
     dense: bool,
+    /// The finest level's scalar couplings at the build: its coupling map holds the block
+    /// pattern's `levels[0].nnz` entries, then these, from [`HEADER`] on.
+    scalars: usize,
 }
 
 fn read_header(index: &[u32]) -> Option<Header> {
@@ -418,6 +432,7 @@ fn read_header(index: &[u32]) -> Option<Header> {
         return None;
     }
     let dense = *head.get(2)? != 0;
+    let scalars = *head.get(3)? as usize;
     let mut levels = [Level::default(); MAX_LEVELS];
     for (l, lv) in levels.iter_mut().enumerate().take(count) {
         let at = 4 + l * LEVEL_WORDS;
@@ -427,6 +442,7 @@ fn read_header(index: &[u32]) -> Option<Header> {
         levels,
         count,
         dense,
+        scalars,
     })
 }
 
