@@ -1281,7 +1281,7 @@ fn place(
 }
 
 /// Adds the fine block `f` between vertices of aggregates `i` and `j` (stored as the fine
-/// `(row, col)` upper block) to the coarse operator.
+/// `(row, col)` upper block) to the coarse operator of pattern `cp`.
 fn accumulate(
     cdiag: &mut [f32],
     coff: &mut [f32],
@@ -1290,17 +1290,7 @@ fn accumulate(
     j: usize,
     f: &Mat3A,
 ) -> Result<(), MgError> {
-    if i == j {
-        // Both (i, j) and (j, i) = fᵀ land in the diagonal block: 2 sym(f).
-        sym_add(part_mut(cdiag, 6 * i, 6)?, f, 2.0);
-    } else if i < j {
-        let k = cp.find(i, j).ok_or(MgError::Internal)?;
-        add_mat(part_mut(coff, 9 * k, 9)?, f);
-    } else {
-        let k = cp.find(j, i).ok_or(MgError::Internal)?;
-        add_mat(part_mut(coff, 9 * k, 9)?, &f.transpose());
-    }
-    Ok(())
+    place(cdiag, coff, coupling_code(cp, i, j)?, i, f)
 }
 
 fn smooth_coarse(inv: &[f32], omega: f32, t: &[Vec3A], z: &mut [Vec3A]) {

@@ -186,17 +186,7 @@ fn map_couplings(
             let big_i = *agg.get(i).ok_or(MgError::Internal)? as usize;
             for (k, j) in p.upper(i) {
                 let big_j = *agg.get(j).ok_or(MgError::Internal)? as usize;
-                let (slot, flag) = match big_i.cmp(&big_j) {
-                    core::cmp::Ordering::Equal => (Some(SAME as usize), 0),
-                    core::cmp::Ordering::Less => (coarse.find(big_i, big_j), 0),
-                    core::cmp::Ordering::Greater => (coarse.find(big_j, big_i), TRANSPOSED),
-                };
-                let code = match slot {
-                    Some(k) if k == SAME as usize => SAME,
-                    Some(k) if k < TRANSPOSED as usize => k as u32 | flag,
-                    _ => return Err(MgError::Internal),
-                };
-                *out.get_mut(k).ok_or(MgError::Internal)? = code;
+                *out.get_mut(k).ok_or(MgError::Internal)? = coupling_code(coarse, big_i, big_j)?;
             }
         }
     }

@@ -466,6 +466,21 @@ pub fn info(index: &[u32]) -> Option<Info> {
     read_header(index).map(|h| info_of(&h))
 }
 
+/// Where a fine coupling between aggregates `i` and `j` lands in the coarse operator of
+/// pattern `coarse`: [`SAME`] (the diagonal block of `i = j`), the coarse block `(i, j)`, or
+/// `(j, i)` flagged [`TRANSPOSED`].
+fn coupling_code(coarse: &Pattern<'_>, i: usize, j: usize) -> Result<u32, MgError> {
+    let (slot, flag) = match i.cmp(&j) {
+        core::cmp::Ordering::Equal => return Ok(SAME),
+        core::cmp::Ordering::Less => (coarse.find(i, j), 0),
+        core::cmp::Ordering::Greater => (coarse.find(j, i), TRANSPOSED),
+    };
+    match slot {
+        Some(k) if k < TRANSPOSED as usize => Ok(k as u32 | flag),
+        _ => Err(MgError::Internal),
+    }
+}
+
 /// `pool[at..at + len]`.
 #[inline]
 fn part<T>(pool: &[T], at: usize, len: usize) -> Result<&[T], MgError> {
