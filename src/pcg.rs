@@ -61,15 +61,15 @@
 //!
 //! The absolute floor is what makes a problem whose right-hand side is only round-off (a cloth
 //! at rest: `b ≈ 0`) cost 0–2 iterations instead of reducing noise by `tolerance` up to the
-//! cap. Where it decides (`tolerance² δ₀ ≤ floor`), a warm start worse than its prescribed
-//! part alone in CG's objective `½ xᵀA x − bᵀx` is replaced by that part before CG starts
-//! (checked where its residual exceeds the right-hand side's own, `r₀ᵀ P r₀ > δ₀`): what of a
-//! start lies below the floor is returned as it came, and such a start is a guess for another
-//! right-hand side (see `run`). Its unit is that of `bᵀ A⁻¹ b`: for the World's step, `b` is a momentum (N·s) and `A` a
+//! cap. Its unit is that of `bᵀ A⁻¹ b`: for the World's step, `b` is a momentum (N·s) and `A` a
 //! mass (kg), so `δ` is in joules: for `P ≈ A⁻¹`, `δ ≈ eᵀ A e` is twice the `A`-norm energy of
 //! the remaining error `e` of `x` (for `A ≈ M`, `Σ m_i |e_i|²`). A preconditioner weaker than
 //! `A⁻¹` on smooth errors (block Jacobi) underestimates it there, as it does the relative test.
-//! `floor = 0` (the default) turns it off.
+//! `floor = 0` (the default) turns it off. Where it decides (`tolerance² δ₀ ≤ floor`), a warm
+//! start worse than its prescribed part alone in CG's objective `½ xᵀA x − bᵀx` is replaced by
+//! that part before CG starts (checked where its residual exceeds the right-hand side's own,
+//! `r₀ᵀ P r₀ > δ₀`): what of a start lies below the floor would be returned as it came, and
+//! such a start is a guess for another right-hand side (see `run`).
 //!
 //! Numerics: vectors are `f32` (`Vec3A`), dot products are accumulated in `f64` in a fixed
 //! order (four interleaved partial sums), so a solve is bit-reproducible given a deterministic
@@ -442,10 +442,10 @@ fn run<F: Filter>(
     // allows `v_floor √(M/m_i)` on one vertex) oscillated at ~5e-4 m/s for ever and every step
     // cost 14 CG iterations; now the pile settles (1e-5 m/s) at 3 per step. The exact test
     // costs a product, so it runs only where the start's residual exceeds the right-hand
-    // side's own (`δ > δ₀`, which for `P = A⁻¹` is the same test). That proxy alone decided
-    // worse: it dropped starts that `φ` keeps, and cost an adversarial scene of slow,
-    // floor-bound solves 40 % more iterations. Where the relative test decides, CG goes on
-    // from the warm start as before.
+    // side's own (`δ > δ₀`: the same test for `P = A⁻¹` and no prescribed part). That proxy
+    // alone decided worse: it dropped starts that `φ` keeps, and cost an adversarial scene of
+    // slow, floor-bound solves 40 % more iterations. Where the relative test decides, CG goes
+    // on from the warm start as before.
     if given <= 0.0 && delta > delta0 && tol2 * delta0 <= floor {
         // CG's objective, with y = S x (in p), A y (in q) and r = S (b − A x):
         // φ(x) − φ(z) = −yᵀ r − ½ yᵀ A y (see `worse_than_none`).
