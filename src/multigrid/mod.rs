@@ -175,9 +175,9 @@ const fn coarse_couplings(couplings: usize) -> usize {
 /// `u32` entries of [`Memory::index`] for a fine level of `vertices` vertices and
 /// `couplings` off-diagonal blocks (the strictly-upper pattern entries of the block and the
 /// scalar patterns): the header; where each fine coupling lands in level 1's operator (its
-/// coarse block, [`SAME`] or [`TRANSPOSED`]: every solve's Galerkin sum then looks nothing
-/// up); the coarse levels' aggregate maps and the coarse patterns. (The finest level's
-/// aggregate map, `vertices` entries, is [`Memory::agg`].)
+/// coarse block, transposed or not, or its aggregate's diagonal block: every solve's Galerkin
+/// sum then looks nothing up); the coarse levels' aggregate maps and the coarse patterns. (The
+/// finest level's aggregate map, `vertices` entries, is [`Memory::agg`].)
 pub const fn index_len(vertices: usize, couplings: usize) -> usize {
     let cv = coarse_vertices(vertices);
     HEADER
