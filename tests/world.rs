@@ -1334,9 +1334,10 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 /// A cloth let go from one corner falls into a pile on a floor and comes to rest there: the
 /// resting pile costs a few CG iterations per step and its vertices stop. Before, a solve
 /// warm-started from the last step's `Δv` kept, where the absolute floor stopped it, what of
-/// that start lay below the floor: the light corner vertex (a quarter of a vertex's mass; the
-/// floor is a mass-weighted sum) went on oscillating at 1.5e-4 m/s, and every step cost 6.4 CG
-/// iterations for ever; now 8.5e-6 m/s and 2.1 iterations over the last 90 steps.
+/// that start lay below the floor: the light corner vertex (a sixth to a third of an inner
+/// vertex's mass; the floor is a mass-weighted sum) went on oscillating at 1.5e-4 m/s, and every
+/// step cost 6.4 CG iterations for ever; now 7e-6 m/s and 2.1 iterations over the last 90
+/// steps.
 #[test]
 fn a_cloth_fallen_into_a_pile_comes_to_rest() {
     let n = 21;
