@@ -447,14 +447,8 @@ fn run<F: Filter>(
     // slow, floor-bound solves 40 % more iterations. Where the relative test decides, CG goes
     // on from the warm start as before.
     if given <= 0.0 && delta > delta0 && tol2 * delta0 <= floor {
-        // CG's objective, with y = S x (in p), A y (in q) and r = S (b − A x):
-        // φ(x) − φ(z) = −yᵀ r − ½ yᵀ A y (see `worse_than_none`).
-        let y_ay = free_part(a, f, x, p, q);
-        let mut y_r = Sum4::ZERO;
-        for (&yi, &ri) in p.iter().zip(r.iter()) {
-            y_r.add(dot64(yi, ri));
-        }
-        if -y_r.total() - 0.5 * y_ay > 0.0 {
+        // y = S x into p, A y into q
+        if rises_above_prescribed(a, f, x, r, p, q) {
             keep_prescribed(f, x);
             // r = S (b − A z) = S (b − A x) + S A y
             for (i, (ri, &qi)) in r.iter_mut().zip(q.iter()).enumerate() {
@@ -638,32 +632,35 @@ fn worse_than_none<F: Filter>(
     s: &mut [Vec3A],
     p: &mut [Vec3A],
 ) -> bool {
+    // q = S (b − A x), the true residual
     a.apply(x, q);
-    let y_ay = free_part(a, f, x, s, p);
-    let mut y_r = Sum4::ZERO;
-    for (i, (&si, (&qi, &bi))) in s.iter().zip(q.iter().zip(b)).enumerate() {
-        y_r.add(dot64(si, f.at(i, bi - qi)));
+    for (i, (qi, &bi)) in q.iter_mut().zip(b).enumerate() {
+        *qi = f.at(i, bi - *qi);
     }
-    -y_r.total() - 0.5 * y_ay > 0.0
+    rises_above_prescribed(a, f, x, q, s, p)
 }
 
-/// `y = S x`, the free part of `x`, and `A y` into `ay`; returns `yᵀ A y`.
-fn free_part<F: Filter>(
+/// `φ(x) − φ(z) > 0` for `z = (I − S) x`, given `r = S (b − A x)`: with `y = S x` (into `y`)
+/// and `A y` (into `ay`, one product), `φ(x) − φ(z) = −yᵀ r − ½ yᵀA y`
+/// ([`worse_than_none`]'s test, and the warm start's near rest in `run`).
+fn rises_above_prescribed<F: Filter>(
     a: &impl Operator,
     f: &F,
     x: &[Vec3A],
+    r: &[Vec3A],
     y: &mut [Vec3A],
     ay: &mut [Vec3A],
-) -> f64 {
+) -> bool {
     for (i, (yi, &xi)) in y.iter_mut().zip(x).enumerate() {
         *yi = f.at(i, xi);
     }
     a.apply(y, ay);
-    let mut y_ay = Sum4::ZERO;
-    for (&yi, &ayi) in y.iter().zip(ay.iter()) {
+    let (mut y_r, mut y_ay) = (Sum4::ZERO, Sum4::ZERO);
+    for ((&yi, &ri), &ayi) in y.iter().zip(r).zip(ay.iter()) {
+        y_r.add(dot64(yi, ri));
         y_ay.add(dot64(yi, ayi));
     }
-    y_ay.total()
+    -y_r.total() - 0.5 * y_ay.total() > 0.0
 }
 
 /// Growth of `δ` above its smallest value in a solve that marks the recursive residual as
