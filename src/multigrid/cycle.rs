@@ -312,12 +312,7 @@ impl<'a> Multigrid<'a> {
 
     /// The shape of the hierarchy.
     pub fn info(&self) -> Info {
-        info_of(&Header {
-            levels: self.levels,
-            count: self.count,
-            dense: self.is_dense,
-            scalars: self.map0.len().saturating_sub(self.a.pattern.nnz()),
-        })
+        info_of(&self.levels, self.count, self.is_dense)
     }
 
     fn level(&self, l: usize) -> Result<Level, MgError> {
@@ -1139,14 +1134,6 @@ fn level_ops<'b>(
     ))
 }
 
-/// The coupling pattern of coarse level `lv` (strictly upper CSR).
-fn coarse_pattern<'b>(index: &'b [u32], lv: &Level) -> Result<Pattern<'b>, MgError> {
-    Ok(Pattern {
-        row_start: part(index, lv.rs, lv.n + 1)?,
-        cols: part(index, lv.cols, lv.nnz)?,
-    })
-}
-
 /// Vertex `i`'s filtered diagonal block `S A_ii S + τ (I − S)`: the constrained directions
 /// get the block's own scale so the inverse is well conditioned; they are decoupled anyway.
 fn filtered(filter: Option<&[Mat3A]>, i: usize, d: &Mat3A) -> Mat3A {
@@ -1764,10 +1751,7 @@ mod tests {
         let ops = &mg.blocks[l1.blk..l1.blk + 12 * l1.n + 9 * l1.nnz];
         let cdiag: Vec<Mat3A> = ops[..6 * l1.n].chunks(6).map(sym_to_mat).collect();
         let coff: Vec<Mat3A> = ops[12 * l1.n..].chunks(9).map(mat_of).collect();
-        let cp = Pattern {
-            row_start: &mg.index[l1.rs..l1.rs + l1.n + 1],
-            cols: &mg.index[l1.cols..l1.cols + l1.nnz],
-        };
+        let cp = coarse_pattern(mg.index, &l1).unwrap();
         let got = dense(&cdiag, &cp, &coff);
         let scale = want.iter().fold(0.0f64, |s, v| s.max(v.abs()));
         for (g, w) in got.iter().zip(&want) {

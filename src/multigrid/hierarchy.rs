@@ -87,10 +87,7 @@ pub fn build(
         let fine = if l == 0 {
             *pattern
         } else {
-            Pattern {
-                row_start: part(front, cur.rs, cur.n + 1)?,
-                cols: part(front, cur.cols, cur.nnz)?,
-            }
+            coarse_pattern(front, &cur)?
         };
         // The finest level's aggregate map lives in its own slice, the others in the pool;
         // only it has scalar couplings (a coarse level's blocks hold them).
@@ -145,11 +142,7 @@ pub fn build(
     let is_dense = count > 1 && coarsest.n <= MAX_DENSE;
     if count > 1 {
         let l1 = levels.get(1).ok_or(MgError::Internal)?;
-        let coarse = Pattern {
-            row_start: part(pool, l1.rs, l1.n + 1)?,
-            cols: part(pool, l1.cols, l1.nnz)?,
-        };
-        map_couplings(pattern, scalars, agg0, &coarse, map)?;
+        map_couplings(pattern, scalars, agg0, &coarse_pattern(pool, l1)?, map)?;
     }
     // Offsets are relative to `pool`; make them relative to `index`.
     for lv in levels.iter_mut().take(count).skip(1) {
@@ -166,7 +159,7 @@ pub fn build(
         part_mut(head, at, LEVEL_WORDS)?.copy_from_slice(&lv.to_words());
     }
     let h = read_header(index).ok_or(MgError::Internal)?;
-    Ok(info_of(&h))
+    Ok(info_of(&h.levels, h.count, h.dense))
 }
 
 /// Where each coupling of the finest level lands in level 1's operator (see [`index_len`]):

@@ -446,13 +446,13 @@ fn read_header(index: &[u32]) -> Option<Header> {
     })
 }
 
-fn info_of(h: &Header) -> Info {
+fn info_of(levels: &[Level; MAX_LEVELS], count: usize, dense: bool) -> Info {
     let mut info = Info {
-        levels: h.count,
-        dense: h.dense,
+        levels: count,
+        dense,
         ..Info::default()
     };
-    for (l, lv) in h.levels.iter().enumerate().take(h.count) {
+    for (l, lv) in levels.iter().enumerate().take(count) {
         if let (Some(v), Some(c)) = (info.vertices.get_mut(l), info.couplings.get_mut(l)) {
             *v = lv.n as u32;
             *c = lv.nnz as u32;
@@ -463,7 +463,7 @@ fn info_of(h: &Header) -> Info {
 
 /// The shape of the hierarchy in `index`, if one was built there.
 pub fn info(index: &[u32]) -> Option<Info> {
-    read_header(index).map(|h| info_of(&h))
+    read_header(index).map(|h| info_of(&h.levels, h.count, h.dense))
 }
 
 /// Where a fine coupling between aggregates `i` and `j` lands in the coarse operator of
@@ -479,6 +479,14 @@ fn coupling_code(coarse: &Pattern<'_>, i: usize, j: usize) -> Result<u32, MgErro
         Some(k) if k < TRANSPOSED as usize => Ok(k as u32 | flag),
         _ => Err(MgError::Internal),
     }
+}
+
+/// The coupling pattern of coarse level `lv` (strictly upper CSR), at its offsets in `pool`.
+fn coarse_pattern<'b>(pool: &'b [u32], lv: &Level) -> Result<Pattern<'b>, MgError> {
+    Ok(Pattern {
+        row_start: part(pool, lv.rs, lv.n + 1)?,
+        cols: part(pool, lv.cols, lv.nnz)?,
+    })
 }
 
 /// `pool[at..at + len]`.
