@@ -485,9 +485,10 @@ impl Scene<'_> {
     /// within the substep by that motion, by little enough to be held ([`engage`]): its
     /// predicted end lies inside the offset surface by at most the contact slop (what the
     /// prediction at the substep's start holds above it, [`Scene::slop`]) or what the
-    /// depenetration speed moves in a substep, whichever is more. The hold lands it on the offset surface, moving
-    /// with it: it approaches no faster than that asks, and no faster than `end` already does;
-    /// a vertex inside is pushed out no faster than the depenetration speed.
+    /// depenetration speed moves in a substep, whichever is more. The hold lands it on the
+    /// offset surface, moving with it: it approaches no faster than that asks, and no faster
+    /// than `end` already does; a vertex inside is pushed out no faster than the depenetration
+    /// speed.
     fn end_touch(&self, placed: &Placed, p: Vec3A, end: Vec3A) -> Option<Touch> {
         let h = self.sub.h;
         let col = placed.col;
