@@ -450,8 +450,9 @@ enum WeftResult
     WEFT_RESULT_MESH_UV_OUT_OF_RANGE = 42,
     /**
      * The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
-     * elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
-     * positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+     * elastic force, stiffness or energy does not fit a 32-bit float, so every step would
+     * fail: usually (u, v) and positions in different units (e.g. (u, v) scaled by 1e-15
+     * against positions in metres).
      */
     WEFT_RESULT_MESH_STRAIN_OUT_OF_RANGE = 43,
     /**

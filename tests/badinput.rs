@@ -428,6 +428,10 @@ proptest! {
                         prop_assert!(mesh.triangles.iter().all(|t| !t.contains(&vertex)));
                     }
                     InitError::MaterialCount => prop_assert_ne!(tri_mat.len(), nt),
+                    // e.g. a 1e30 N/m material stretched: its force or energy beyond f32
+                    InitError::StrainOutOfRange { triangle } => {
+                        prop_assert!((triangle as usize) < nt)
+                    }
                     InitError::Mesh(_) | InitError::EdgeCapacity { .. } => {}
                     other => prop_assert!(false, "unexpected refusal {:?}", other),
                 }

@@ -739,6 +739,35 @@ fn a_cloth_that_can_never_step_is_refused_at_init() {
     assert_eq!(r.err(), Some(InitError::StrainOutOfRange { triangle: 0 }));
 }
 
+/// The refusal names the triangle to look at: in a sheet stretched 3×, one triangle of a
+/// 4e37 N/m material, whose stress (1.6e38 N/m) still fits `f32` but not its force, stiffness
+/// or energy. Before, the refusal came from the tensile part of that stress (its square
+/// overflowed), and an estimate of the force (area times stress times gradients, which fits)
+/// found no triangle and named triangle 0.
+#[test]
+fn a_refused_cloth_names_the_overstretched_triangle() {
+    use weft::world::{InitError, Materials};
+    let mats = [anisotropic(), isotropic(4e37, 0.3, 0.15)];
+    let mut sheet = hanging_sheet(8, 0.5);
+    sheet.transform(|p| p.map(|c| 3.0 * c));
+    let stiff = 40;
+    sheet.materials[stiff] = 1;
+    let mut mem = memory(&sheet.capacity());
+    let r = World::new(
+        &mut mem,
+        sheet.capacity(),
+        &sheet.def(),
+        Materials::Table(&mats),
+        Settings::default(),
+    );
+    assert_eq!(
+        r.err(),
+        Some(InitError::StrainOutOfRange {
+            triangle: stiff as u32
+        })
+    );
+}
+
 /// The header's promise on triangle orientation: index order is free triangle by triangle
 /// (weft orients triangles by their (u, v) layout), so a hanging cloth with every other
 /// triangle listed in reverse moves as the original does, to round-off.

@@ -90,8 +90,9 @@ pub enum WeftResult {
     /// not fit a 32-bit float.
     MeshUvOutOfRange = 42,
     /// The initial positions stretch triangle `detail.triangle` so far from its (u, v) that its
-    /// elastic force does not fit a 32-bit float, so every step would fail: usually (u, v) and
-    /// positions in different units (e.g. (u, v) scaled by 1e-15 against positions in metres).
+    /// elastic force, stiffness or energy does not fit a 32-bit float, so every step would
+    /// fail: usually (u, v) and positions in different units (e.g. (u, v) scaled by 1e-15
+    /// against positions in metres).
     MeshStrainOutOfRange = 43,
 
     /// The blob is shorter than its header, or than the size its header announces, or longer

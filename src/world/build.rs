@@ -5,7 +5,7 @@
 //! bending Hessians and the multigrid hierarchy. Either the whole world is built or an error is
 //! returned.
 
-use glam::Vec3A;
+use glam::{Mat3A, Vec3A};
 
 use super::effects;
 
@@ -352,35 +352,48 @@ impl<'a> World<'a> {
         self.check_initial_forces()
     }
 
-    /// Refuses a cloth that can never step: every step first evaluates the elastic forces and
-    /// stiffness of its state in `f32`, and fails (`SolverBreakdown`) when they overflow, and a
-    /// failed step keeps its state, so a cloth whose initial forces do not fit `f32` fails
+    /// Refuses a cloth that can never step: every step first evaluates the elastic forces,
+    /// stiffness and energy of its state, per triangle in `f32`, and fails when they overflow
+    /// (the solve breaks down, or the energy balance reads an infinite energy), and a failed
+    /// step keeps its state, so a cloth whose initial elastic terms do not fit `f32` fails
     /// every step. That happens when the positions stretch the rest (u, v) beyond anything a
     /// membrane takes (e.g. (u, v) scaled by 1e-15 against positions in metres: a stretch of
-    /// 1e15). The error names the first triangle whose own force overflows.
+    /// 1e15). The error names the first triangle whose own terms overflow (triangle 0 if only
+    /// their sums do).
     fn check_initial_forces(&mut self) -> Result<(), InitError> {
         let (n, nt, nnz) = (self.n, self.nt, self.nnz);
         let force = core::mem::take(&mut self.a.force);
-        let assembled = self.elastic_forces(force);
+        let energy = self.assemble_elastic(force);
         self.a.force = force;
         let a = &self.a;
-        let finite = assembled
+        let finite = energy.is_some_and(f64::is_finite)
             && live(a.force, n)?.iter().all(|f| f.is_finite())
             && live(a.k_diag, n)?.iter().all(|k| k.is_finite())
             && live(a.k_off, nnz)?.iter().all(|k| k.is_finite());
         if finite {
             return Ok(());
         }
+        // The same assembly, one triangle at a time on its own three corners.
         let warping = self.settings.effects & effects::WARPING != 0;
         let strain = crate::step::forces::membrane_strain(warping);
         let x = live(a.x, n)?;
         let corner = |i: u32| x.get(i as usize).copied().unwrap_or(Vec3A::ZERO); // (< n)
         let overflows = |(tri, element): (&[u32; 3], &Element)| {
-            let (e, d1, d2) = element.measure(tri.map(corner), strain);
-            let stress = element.stress(e).iter().fold(0.0f32, |m, s| m.max(s.abs()));
-            let gradient = element.grad.iter().fold(0.0f32, |m, g| m.max(g.abs()));
-            let force = element.area * stress * gradient * d1.length().max(d2.length());
-            !force.is_finite()
+            let (mut diag, mut off, mut force) =
+                ([Mat3A::ZERO; 3], [Mat3A::ZERO; 3], [Vec3A::ZERO; 3]);
+            let own = membrane::assemble(
+                &[[0, 1, 2]],
+                core::slice::from_ref(element),
+                &[[0, 1, 2]],
+                &tri.map(corner),
+                strain,
+                &mut diag,
+                &mut off,
+                &mut force,
+            );
+            !(own.is_ok_and(f64::is_finite)
+                && force.iter().all(|f| f.is_finite())
+                && diag.iter().chain(&off).all(|k| k.is_finite()))
         };
         let mut triangles = live(a.triangles, nt)?.iter().zip(live(a.elements, nt)?);
         let triangle = triangles.position(overflows).unwrap_or(0) as u32;

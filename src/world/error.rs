@@ -38,8 +38,8 @@ pub enum InitError {
         field: &'static str,
     },
     /// The initial positions stretch triangle `triangle`'s rest (u, v) so far that its elastic
-    /// force does not fit `f32`: every step would fail. Usually (u, v) and positions in
-    /// different units.
+    /// force, stiffness or energy does not fit `f32`: every step would fail. Usually (u, v)
+    /// and positions in different units.
     StrainOutOfRange {
         triangle: u32,
     },
@@ -190,8 +190,8 @@ impl fmt::Display for InitError {
             InitError::InvalidSetting { field } => write!(f, "setting `{field}` is out of range"),
             InitError::StrainOutOfRange { triangle } => write!(
                 f,
-                "triangle {triangle} is stretched so far from its (u, v) that its force is beyond \
-                 f32: the cloth could never step"
+                "triangle {triangle} is stretched so far from its (u, v) that its elastic terms are \
+                 beyond f32: the cloth could never step"
             ),
             InitError::Internal => f.write_str("internal consistency check failed"),
         }

@@ -1318,15 +1318,21 @@ impl<'a> World<'a> {
     /// The elastic forces (N) on the current state, exactly as the next substep computes
     /// them; for tests and diagnostics. Returns false when `out` is too short.
     pub fn elastic_forces(&mut self, out: &mut [Vec3A]) -> bool {
+        self.assemble_elastic(out).is_some()
+    }
+
+    /// [`World::elastic_forces`], with the membrane's elastic energy (J) it assembled them
+    /// with (that of per-node warping's unrotated membrane, for that research option).
+    pub(crate) fn assemble_elastic(&mut self, out: &mut [Vec3A]) -> Option<f64> {
         let n = self.n;
         if out.len() < n {
-            return false;
+            return None;
         }
         self.refresh_frames(16);
         let warping = self.settings.effects & effects::WARPING != 0;
         let per_node = warping && self.settings.per_node_warping;
         let a = &mut self.a;
-        let ok = membrane::assemble(
+        let energy = membrane::assemble(
             prefix(a.triangles, self.nt),
             prefix(a.elements, self.nt),
             prefix(a.slots, self.nt),
@@ -1336,17 +1342,13 @@ impl<'a> World<'a> {
             prefix_mut(a.k_off, self.nnz),
             prefix_mut(out, n),
         )
-        .is_ok();
+        .ok()?;
         #[cfg(feature = "research")]
-        if ok && per_node {
+        if per_node {
             let counts = self.counts();
-            return crate::research::per_node::warped_force(
-                &mut self.a,
-                &counts,
-                prefix_mut(out, n),
-            )
-            .is_ok();
+            crate::research::per_node::warped_force(&mut self.a, &counts, prefix_mut(out, n))
+                .ok()?;
         }
-        ok
+        Some(energy)
     }
 }
