@@ -592,7 +592,15 @@ fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
 fn tension(s: [f32; 3]) -> [f32; 3] {
     let mean = 0.5 * (s[0] + s[1]);
     let half = 0.5 * (s[0] - s[1]);
-    let radius = libm::sqrtf(half * half + s[2] * s[2]);
+    let mut radius = libm::sqrtf(half * half + s[2] * s[2]);
+    if !radius.is_finite() {
+        // the squares overflow f32 (stresses beyond ~1e19 N/m): scaled by the larger one
+        let big = half.abs().max(s[2].abs());
+        if big.is_finite() {
+            let k = 1.0 / big;
+            radius = big * libm::sqrtf((half * k) * (half * k) + (s[2] * k) * (s[2] * k));
+        }
+    }
     let (l1, l2) = (mean + radius, mean - radius);
     if l2 >= 0.0 {
         return s;
@@ -632,6 +640,24 @@ mod runtime_tests {
         assert!(t[0] >= 0.0 && t[1] >= 0.0 && det(t) > -1e-5);
         let r = [s[0] - t[0], s[1] - t[1], s[2] - t[2]];
         assert!(r[0] <= 1e-6 && r[1] <= 1e-6 && det(r) > -1e-5);
+    }
+
+    /// Stresses whose squares overflow `f32` (a 1e30 N/m material compressed, found by the
+    /// init property test): the tensile part stays finite. Before, the principal radius was
+    /// `+∞`, the tensile part `∞` and the stiffness `∞ − ∞`, so `World::new` refused as
+    /// overstretched a cloth whose forces, stiffness and energy all fit `f32`.
+    #[test]
+    fn tension_of_huge_stresses_is_finite() {
+        for s in [
+            [1e30f32, -1e30, 5e29],
+            [-4e29, 2e29, 0.0],
+            [1e38, -1e38, 5e37],
+        ] {
+            let t = tension(s);
+            assert!(t.iter().all(|v| v.is_finite()), "{s:?} -> {t:?}");
+            let det = t[0] as f64 * t[1] as f64 - (t[2] as f64).powi(2);
+            assert!(t[0] >= 0.0 && t[1] >= 0.0 && det >= -1e-6 * (t[0] as f64).powi(2));
+        }
     }
 
     /// A small deterministic generator (tests only).
