@@ -252,12 +252,27 @@ impl Filter for Blocks<'_> {
     }
 }
 
-/// `a · b` in `f64`; the three products are exact, only the two additions round.
+/// `a · b` as a term of an `f64` sum: the per-vertex product in `f32` (3 terms), the long sum
+/// over vertices in `f64`, where cancellation and order effects build up. Where the `f32`
+/// product overflows (vectors beyond ~1e19, e.g. the forces of a cloth stretched 1e10 times),
+/// it is recomputed in `f64`, so a sum that fits `f64` is not lost to `f32`'s range.
 #[inline(always)]
-fn dot64(a: Vec3A, b: Vec3A) -> f64 {
-    // Per-vertex products in f32 (3 terms, one rounding), the long sum over vertices in f64:
-    // the sum is where cancellation and order effects build up.
-    f64::from(a.dot(b))
+pub(crate) fn dot64(a: Vec3A, b: Vec3A) -> f64 {
+    let d = a.dot(b);
+    if d.is_finite() {
+        f64::from(d)
+    } else {
+        dot_wide(a, b)
+    }
+}
+
+/// `a · b` in `f64` products (NaN stays NaN): [`dot64`]'s rare path, out of its loops.
+#[cold]
+#[inline(never)]
+fn dot_wide(a: Vec3A, b: Vec3A) -> f64 {
+    let w = |v: Vec3A| [f64::from(v.x), f64::from(v.y), f64::from(v.z)];
+    let ([ax, ay, az], [bx, by, bz]) = (w(a), w(b));
+    ax * bx + ay * by + az * bz
 }
 
 /// A sum of `f64` terms in four interleaved partial sums (term `k` goes to sum `k mod 4`),
@@ -1211,6 +1226,30 @@ pub(crate) mod tests {
         let st = sys.solve_block_jacobi(None, &b, &mut x, &floored);
         assert!(st.converged && st.iterations == 0, "{st:?}");
         assert_eq!(x, start);
+    }
+
+    /// The solve is linear in `b` across `f32`'s range: scaled by 2^70 (a right-hand side of
+    /// ~1e21, as a cloth stretched 1e10 times makes), the per-vertex products of `rᵀ P r`
+    /// overflow `f32` while their sum fits `f64`. Before, the solve broke down at once.
+    #[test]
+    fn a_right_hand_side_beyond_f32_squares_is_solved() {
+        let mut rng = Lcg(47);
+        let n = 30;
+        let sys = System::random(&mut rng, n, 1.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let scale = 2.0f32.powi(70);
+        let big: Vec<Vec3A> = b.iter().map(|&v| v * scale).collect();
+        let mut x = vec![Vec3A::ZERO; n];
+        let st = sys.solve_block_jacobi(None, &b, &mut x, &settings(1e-5, 200));
+        let mut y = vec![Vec3A::ZERO; n];
+        let st_big = sys.solve_block_jacobi(None, &big, &mut y, &settings(1e-5, 200));
+        assert!(st.converged && st_big.converged, "{st:?} {st_big:?}");
+        let worst = x
+            .iter()
+            .zip(&y)
+            .map(|(&a, &b)| (b / scale - a).length() / a.length().max(1e-3))
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "{worst:e}");
     }
 
     #[test]

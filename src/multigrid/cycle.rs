@@ -954,7 +954,7 @@ const KRYLOV_SKIP: f64 = 0.25;
 fn dot(a: &[Vec3A], b: &[Vec3A]) -> f64 {
     a.iter()
         .zip(b)
-        .fold(0.0, |s, (&x, &y)| s + f64::from(x.dot(y)))
+        .fold(0.0, |s, (&x, &y)| s + crate::pcg::dot64(x, y))
 }
 
 /// `t = S (r − A z)` on the finest level, with `A`'s lumped scalar couplings `w` (empty:
