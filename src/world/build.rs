@@ -375,7 +375,8 @@ impl<'a> World<'a> {
         }
         // The same assembly, one triangle at a time on its own three corners.
         let warping = self.settings.effects & effects::WARPING != 0;
-        let strain = crate::step::forces::membrane_strain(warping);
+        let strain =
+            crate::step::forces::membrane_strain(warping && !self.settings.per_node_warping);
         let x = live(a.x, n)?;
         let corner = |i: u32| x.get(i as usize).copied().unwrap_or(Vec3A::ZERO); // (< n)
         let overflows = |(tri, element): (&[u32; 3], &Element)| {
