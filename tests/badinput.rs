@@ -620,6 +620,43 @@ fn a_failed_step_does_not_poison_the_next() {
     }
 }
 
+/// A pin moved a billion metres or more in one step stretches its triangles beyond what `f32`
+/// holds as energy while every position still fits. Such a step used to return `Ok` with an
+/// infinite elastic energy (its balance read `∞ ≤ ∞`), and every later step failed, the pin
+/// removed or not: the world was dead. Now the step fails with its start kept, as one whose
+/// state overflowed, and the world steps on once the pin is gone.
+#[test]
+fn a_step_never_ends_where_the_energy_overflows() {
+    for far in [1e9f32, 1e12] {
+        let s = Sheet::grid(5, 5, 0.4, 0.4);
+        let mats = [common::anisotropic()];
+        let mut mem = common::memory(&s.capacity());
+        let mut w = World::new(
+            &mut mem,
+            s.capacity(),
+            &s.def(),
+            Materials::Table(&mats),
+            Settings::default(),
+        )
+        .unwrap();
+        w.set_pin(0, [0.0; 3]).unwrap();
+        w.step().unwrap();
+        let before = state(&w);
+        w.set_pin(0, [far, 0.0, 0.0]).unwrap();
+        match w.step() {
+            Ok(_) => assert!(w.energy().total().is_finite(), "{far:e}: {:?}", w.energy()),
+            Err(_) => assert_state(&w, &before, "the failed step"),
+        }
+        w.remove_pin(0).unwrap();
+        for _ in 0..3 {
+            let r = w.step();
+            assert!(r.is_ok(), "{far:e}: {r:?}");
+            assert_sane(&w);
+            assert!(w.energy().total().is_finite(), "{far:e}: {:?}", w.energy());
+        }
+    }
+}
+
 /// Found by `init_on_any_mesh_builds_or_refuses`: a vertex that no triangle uses got zero mass,
 /// which the rotation set-up refused as `InitError::Internal` ("a bug if it happens"). It is
 /// bad input, and now named as such.
