@@ -600,14 +600,7 @@ fn a_failed_step_does_not_poison_the_next() {
     let s = Sheet::grid(5, 5, 0.4, 0.4);
     let mats = [common::isotropic(1000.0, 0.3, 0.2)];
     let mut mem = common::memory(&s.capacity());
-    let mut w = World::new(
-        &mut mem,
-        s.capacity(),
-        &s.def(),
-        Materials::Table(&mats),
-        Settings::default(),
-    )
-    .unwrap();
+    let mut w = common::world(&mut mem, &s, &mats, Settings::default());
     let before = state(&w);
     w.set_pin(0, [0.1, 1e30, 0.05]).unwrap();
     assert!(w.step().is_err());
@@ -631,14 +624,7 @@ fn a_step_never_ends_where_the_energy_overflows() {
         let s = Sheet::grid(5, 5, 0.4, 0.4);
         let mats = [common::anisotropic()];
         let mut mem = common::memory(&s.capacity());
-        let mut w = World::new(
-            &mut mem,
-            s.capacity(),
-            &s.def(),
-            Materials::Table(&mats),
-            Settings::default(),
-        )
-        .unwrap();
+        let mut w = common::world(&mut mem, &s, &mats, Settings::default());
         w.set_pin(0, [0.0; 3]).unwrap();
         w.step().unwrap();
         let before = state(&w);
