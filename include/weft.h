@@ -524,9 +524,10 @@ enum WeftResult
      */
     WEFT_RESULT_SOLVER_BREAKDOWN = 66,
     /**
-     * The step produced NaN or infinite positions at every substep count the step tried (up
-     * to 8× the setting's); the world kept the state it had before. Usually a time step far
-     * too large for the cloth's stiffness, or a pin target out of reach.
+     * The step produced NaN or infinite positions, or a state whose energy overflows a 32-bit
+     * float, at every substep count the step tried (up to 8× the setting's); the world kept
+     * the state it had before. Usually a time step far too large for the cloth's stiffness,
+     * or a pin target out of reach (e.g. moved 1e9 m in one step).
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
     /**

@@ -67,8 +67,9 @@ pub enum StepError {
     /// The solver broke down (indefinite or non-finite system), at every substep count the
     /// step tried (up to 8× the setting's, as for a gain of energy).
     SolverBreakdown,
-    /// The step produced NaN or infinite positions or velocities, at every substep count the
-    /// step tried.
+    /// The step produced NaN or infinite positions or velocities, or a state whose energy
+    /// overflows `f32` (e.g. a pin moved 1e9 m in one step), at every substep count the step
+    /// tried; the world kept the state it had before.
     NonFiniteState,
     /// The step's energy balance is not a number (its energies overflowed `f64`). The state
     /// is the one before this step. (A step that gains energy is redone, and as a last resort
@@ -206,9 +207,9 @@ impl fmt::Display for StepError {
                 write!(f, "the pin of vertex {vertex} has a non-finite target")
             }
             StepError::SolverBreakdown => f.write_str("the linear solver broke down"),
-            StepError::NonFiniteState => {
-                f.write_str("the step produced non-finite positions or velocities")
-            }
+            StepError::NonFiniteState => f.write_str(
+                "the step produced non-finite positions or velocities, or an energy beyond f32",
+            ),
             StepError::Unstable => f.write_str("the step's energy balance is not a number"),
         }
     }
