@@ -1123,7 +1123,7 @@ impl<'a> World<'a> {
             let (gravity, gravity_noise) =
                 monitor::constant_force_work(&self.a, &counts, &self.settings)?;
             let gain = end.energy - start.energy - gravity - input;
-            let floor = start.noise + end.noise + gravity_noise + input_noise;
+            let floor = start.noise + end.excess + gravity_noise + input_noise;
             stats.redone = redone;
             stats.energy_gain = gain as f32;
             if gain <= floor {
