@@ -1426,41 +1426,17 @@ mod tests {
     #[test]
     fn only_the_pushes_of_a_projection_are_input() {
         use crate::collide::{Collider, Shape};
-        use crate::mesh;
-        use crate::world::{Capacity, ClothDef, Material, Materials, World};
-        let (nx, size) = (5usize, 1.0f32);
+        let nx = 5usize;
         let n = nx * nx;
-        let mut positions = vec![[0.0f32; 3]; n];
-        let mut uvs = vec![[0.0f32; 2]; n];
-        let mut triangles = vec![[0u32; 3]; 2 * (nx - 1) * (nx - 1)];
-        mesh::grid(nx, nx, size, size, &mut positions, &mut uvs, &mut triangles).unwrap();
-        let materials = vec![0u32; triangles.len()];
-        let mats = [Material {
-            stiffness: [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
-            density: 0.15,
-            bending: 1e-4,
-        }];
-        let def = ClothDef {
-            positions: &positions,
-            uvs: &uvs,
-            triangles: &triangles,
-            materials: &materials,
-        };
-        let cap = Capacity::grid(nx as u32);
+        let grid = crate::world::TestGrid::new(nx, 1.0);
+        let positions = &grid.positions;
         let (centre, corner) = (2 * nx + 2, n - 1);
         let h = 1.0 / 60.0;
         // The credited work, the potential before and after the projection, the vertices
         // touching a collider.
         let project = |still: bool| -> (f64, f64, f64, u32) {
-            let mut mem = vec![0u8; cap.world_bytes()];
-            let mut w = World::new(
-                &mut mem,
-                cap,
-                &def,
-                Materials::Table(&mats),
-                Default::default(),
-            )
-            .unwrap();
+            let mut mem = grid.memory();
+            let mut w = grid.world(&mut mem);
             let mut v = vec![[0.0f32; 3]; n];
             v[centre] = [0.0, 0.0, -3.0]; // it began the substep 5 cm above where it is
             w.set_velocities(&v).unwrap();

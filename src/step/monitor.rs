@@ -243,36 +243,9 @@ mod tests {
     /// forgave adversarial scene 9526 a gain of 8.5 kJ from 3 kJ.
     #[test]
     fn an_end_state_forgives_no_more_than_the_energy_it_holds() {
-        use crate::mesh;
-        use crate::world::{Capacity, ClothDef, Material, Materials, World};
-        let nx = 5usize;
-        let n = nx * nx;
-        let mut positions = vec![[0.0f32; 3]; n];
-        let mut uvs = vec![[0.0f32; 2]; n];
-        let mut triangles = vec![[0u32; 3]; 2 * (nx - 1) * (nx - 1)];
-        mesh::grid(nx, nx, 0.4, 0.4, &mut positions, &mut uvs, &mut triangles).unwrap();
-        let materials = vec![0u32; triangles.len()];
-        let mats = [Material {
-            stiffness: [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
-            density: 0.15,
-            bending: 1e-4,
-        }];
-        let def = ClothDef {
-            positions: &positions,
-            uvs: &uvs,
-            triangles: &triangles,
-            materials: &materials,
-        };
-        let cap = Capacity::grid(nx as u32);
-        let mut mem = vec![0u8; cap.world_bytes()];
-        let mut w = World::new(
-            &mut mem,
-            cap,
-            &def,
-            Materials::Table(&mats),
-            Settings::default(),
-        )
-        .unwrap();
+        let grid = crate::world::TestGrid::new(5, 0.4);
+        let mut mem = grid.memory();
+        let mut w = grid.world(&mut mem);
         for far in [0.0, 2e4] {
             w.set_origin(glam::DVec3::new(far, -far, far)).unwrap();
             let (a, c, st) = w.stage();

@@ -1365,3 +1365,62 @@ impl<'a> World<'a> {
         Some(energy)
     }
 }
+
+/// A flat `nx × nx` grid cloth of side `size` (m) in the tests' anisotropic material, owned,
+/// for the step stages' own tests ([`World::stage`]).
+#[cfg(test)]
+pub(crate) struct TestGrid {
+    pub positions: std::vec::Vec<[f32; 3]>,
+    pub uvs: std::vec::Vec<[f32; 2]>,
+    pub triangles: std::vec::Vec<[u32; 3]>,
+    pub materials: std::vec::Vec<u32>,
+    pub capacity: Capacity,
+}
+
+#[cfg(test)]
+impl TestGrid {
+    pub fn new(nx: usize, size: f32) -> Self {
+        let n = nx * nx;
+        let mut positions = std::vec![[0.0f32; 3]; n];
+        let mut uvs = std::vec![[0.0f32; 2]; n];
+        let mut triangles = std::vec![[0u32; 3]; 2 * (nx - 1) * (nx - 1)];
+        mesh::grid(nx, nx, size, size, &mut positions, &mut uvs, &mut triangles).unwrap();
+        let materials = std::vec![0u32; triangles.len()];
+        let capacity = Capacity::grid(nx as u32);
+        TestGrid {
+            positions,
+            uvs,
+            triangles,
+            materials,
+            capacity,
+        }
+    }
+
+    /// Memory for its world.
+    pub fn memory(&self) -> std::vec::Vec<u8> {
+        std::vec![0u8; self.capacity.world_bytes()]
+    }
+
+    /// Its world in `mem`, default settings.
+    pub fn world<'m>(&self, mem: &'m mut [u8]) -> World<'m> {
+        let def = ClothDef {
+            positions: &self.positions,
+            uvs: &self.uvs,
+            triangles: &self.triangles,
+            materials: &self.materials,
+        };
+        let mats = [Material {
+            stiffness: [[600.0, 60.0, 0.0], [60.0, 150.0, 0.0], [0.0, 0.0, 50.0]],
+            density: 0.15,
+            bending: 1e-4,
+        }];
+        World::new(
+            mem,
+            self.capacity,
+            &def,
+            Materials::Table(&mats),
+            Settings::default(),
+        )
+        .unwrap()
+    }
+}
