@@ -61,7 +61,7 @@ pub(crate) fn accumulate(
         live(a.elements, c.nt)?,
         live(a.slots, c.nt)?,
         live(a.x, n)?,
-        membrane_strain(warping && !per_node),
+        assembly_strain(st),
         live_mut(a.k_diag, n)?,
         live_mut(a.k_off, c.nnz)?,
         live_mut(a.force, n)?,
@@ -114,6 +114,13 @@ pub(crate) fn accumulate(
         *r = f * h;
     }
     Ok(elastic)
+}
+
+/// The strain measure the step's membrane assembly uses under `st`: Green when the scene warps
+/// per element; linear FEM without warping, and for per-node warping, whose Eq. 17 rotates
+/// the unrotated linear `K` node by node.
+pub(crate) fn assembly_strain(st: &Settings) -> membrane::Strain {
+    membrane_strain(st.effects & effects::WARPING != 0 && !st.per_node_warping)
 }
 
 /// The membrane's strain measure: Green (rotation invariant) when the scene warps, linear FEM

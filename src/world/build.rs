@@ -7,8 +7,6 @@
 
 use glam::{Mat3A, Vec3A};
 
-use super::effects;
-
 use super::{copy_live, Solver, StridedClothDef, TriangleMaterials, World};
 use super::{memory, origin, Capacity, ClothDef, InitError, Materials, Settings, StepStats};
 use crate::bending;
@@ -374,9 +372,7 @@ impl<'a> World<'a> {
             return Ok(());
         }
         // The same assembly, one triangle at a time on its own three corners.
-        let warping = self.settings.effects & effects::WARPING != 0;
-        let strain =
-            crate::step::forces::membrane_strain(warping && !self.settings.per_node_warping);
+        let strain = crate::step::forces::assembly_strain(&self.settings);
         let x = live(a.x, n)?;
         let corner = |i: u32| x.get(i as usize).copied().unwrap_or(Vec3A::ZERO); // (< n)
         let overflows = |(tri, element): (&[u32; 3], &Element)| {

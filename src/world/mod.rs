@@ -1342,22 +1342,20 @@ impl<'a> World<'a> {
             return None;
         }
         self.refresh_frames(16);
-        let warping = self.settings.effects & effects::WARPING != 0;
-        let per_node = warping && self.settings.per_node_warping;
         let a = &mut self.a;
         let energy = membrane::assemble(
             prefix(a.triangles, self.nt),
             prefix(a.elements, self.nt),
             prefix(a.slots, self.nt),
             prefix(a.x, n),
-            step::forces::membrane_strain(warping && !per_node),
+            step::forces::assembly_strain(&self.settings),
             prefix_mut(a.k_diag, n),
             prefix_mut(a.k_off, self.nnz),
             prefix_mut(out, n),
         )
         .ok()?;
         #[cfg(feature = "research")]
-        if per_node {
+        if self.settings.effects & effects::WARPING != 0 && self.settings.per_node_warping {
             let counts = self.counts();
             crate::research::per_node::warped_force(&mut self.a, &counts, prefix_mut(out, n))
                 .ok()?;
