@@ -1143,8 +1143,9 @@ pub(crate) fn constraint_work(
             .zip(live(a.pin_of, n)?)
             .zip(live(a.filter, n)?)
             .zip(w_q.iter().zip(rhs))
-            .zip(live(a.v, n)?.iter().zip(live(a.dv, n)?));
-        for (i, (((((&contact, &dropped), &pin), &filter), (&aq, &b)), (&v, &dv))) in
+            .zip(live(a.v, n)?.iter().zip(live(a.dv, n)?))
+            .zip(live(a.mass, n)?);
+        for (i, ((((((&contact, &dropped), &pin), &filter), (&aq, &b)), (&v, &dv)), &mass)) in
             vertices.enumerate()
         {
             if pin != mesh::NONE || filter == Mat3A::IDENTITY {
@@ -1161,16 +1162,29 @@ pub(crate) fn constraint_work(
                 }
                 None => Vec3A::ZERO,
             };
-            let impulse = (Mat3A::IDENTITY - filter) * (aq - b);
+            let held = Mat3A::IDENTITY - filter;
+            let impulse = held * (aq - b);
             work += f64::from(impulse.dot(surface));
             // A contact that pushes a vertex out faster than its surface moves (out of a
             // penetration, at up to `max_depenetration_speed`) puts in what its impulse does
-            // at the vertex's mean velocity over the substep, relative to the surface,
-            // `J·(v + ½Δv − v_s)`: exactly the kinetic energy an impulse from `v` to `v + Δv`
-            // gives. (At the end velocity it would also count the impact it absorbs, and hide
-            // a gain; stopped or drawn toward its surface, a vertex gives energy up: the step's
-            // own loss, not counted.)
-            work += f64::from(impulse.dot(v + 0.5 * dv - surface).max(0.0));
+            // over the substep, relative to the surface. Its inertial part, the momentum it
+            // changes, `J_m = m Δv` (on the held axes), does so at the vertex's mean velocity,
+            // `J_m·(v + ½Δv − v_s)`: exactly the kinetic energy an impulse from `v` to `v + Δv`
+            // gives (at the end velocity it would also count the impact it absorbs, and hide a
+            // gain). The rest holds the vertex against its load (the membrane, bending,
+            // gravity) while it moves by `h (v + Δv)`: the work against a load that goes from
+            // `−b` (the forces' impulse at the substep's start, `rhs`) to `J − J_m` (at its
+            // end, implicit), by the trapezoid rule, `½ (J − J_m − b)·(v + Δv − v_s)`. At the
+            // mean velocity, as the inertial part, a push from rest against the tension of a
+            // cloth crammed into a shell was credited half its work and the step gained the
+            // other half (adversarial seed 5161, once a held-still step had zeroed its
+            // velocities: held still again at every step); at the end load alone it is
+            // credited more than its work. Stopped or drawn toward its surface, a vertex gives
+            // energy up: the step's own loss, not counted.
+            let inertial = held * (dv * mass);
+            let pushed = inertial.dot(v + 0.5 * dv - surface)
+                + (0.5 * (impulse - inertial - held * b)).dot(v + dv - surface);
+            work += f64::from(pushed.max(0.0));
         }
     }
     Ok(work)
