@@ -33,8 +33,7 @@ pub(crate) fn accumulate(
 ) -> Result<f64, StepError> {
     let n = c.n;
     let eff = st.effects;
-    let warping = eff & effects::WARPING != 0;
-    let per_node = warping && st.per_node_warping;
+    let per_node = per_node_warping(st);
     let bending_on = eff & effects::BENDING != 0;
     let (alpha, beta) = if eff & effects::DAMPING != 0 {
         (st.damping_mass, st.damping_stiffness)
@@ -120,7 +119,13 @@ pub(crate) fn accumulate(
 /// per element; linear FEM without warping, and for per-node warping, whose Eq. 17 rotates
 /// the unrotated linear `K` node by node.
 pub(crate) fn assembly_strain(st: &Settings) -> membrane::Strain {
-    membrane_strain(st.effects & effects::WARPING != 0 && !st.per_node_warping)
+    membrane_strain(st.effects & effects::WARPING != 0 && !per_node_warping(st))
+}
+
+/// Whether the step warps with the paper's per-node rotations (Eq. 14–17, feature
+/// `research`): the scene warps and asks for it.
+pub(crate) fn per_node_warping(st: &Settings) -> bool {
+    st.effects & effects::WARPING != 0 && st.per_node_warping
 }
 
 /// The membrane's strain measure: Green (rotation invariant) when the scene warps, linear FEM

@@ -38,7 +38,7 @@ pub(crate) fn fold(a: &mut Arrays<'_>, c: &Counts, st: &Settings, h: f32) -> Res
     let n = c.n;
     let eff = st.effects;
     #[cfg(feature = "research")]
-    if eff & effects::WARPING != 0 && st.per_node_warping {
+    if super::forces::per_node_warping(st) {
         return Ok(()); // the research solver assembles its own system
     }
     let (c_m, c_k) = coefficients(st, h);
@@ -115,7 +115,7 @@ pub(crate) fn solve(
         reference,
     };
     #[cfg(feature = "research")]
-    if st.effects & effects::WARPING != 0 && st.per_node_warping {
+    if super::forces::per_node_warping(st) {
         let (c_m, c_k) = coefficients(st, h);
         let stats = crate::research::per_node::solve(a, c, st, c_m, c_k, &settings, constrained)?;
         return Ok(Solved {

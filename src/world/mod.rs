@@ -1355,7 +1355,7 @@ impl<'a> World<'a> {
         )
         .ok()?;
         #[cfg(feature = "research")]
-        if self.settings.effects & effects::WARPING != 0 && self.settings.per_node_warping {
+        if step::forces::per_node_warping(&self.settings) {
             let counts = self.counts();
             crate::research::per_node::warped_force(&mut self.a, &counts, prefix_mut(out, n))
                 .ok()?;
