@@ -1167,24 +1167,25 @@ pub(crate) fn constraint_work(
             work += f64::from(impulse.dot(surface));
             // A contact that pushes a vertex out faster than its surface moves (out of a
             // penetration, at up to `max_depenetration_speed`) puts in what its impulse does
-            // over the substep, relative to the surface. Its inertial part, the momentum it
-            // changes, `J_m = m Δv` (on the held axes), does so at the vertex's mean velocity,
-            // `J_m·(v + ½Δv − v_s)`: exactly the kinetic energy an impulse from `v` to `v + Δv`
-            // gives (at the end velocity it would also count the impact it absorbs, and hide a
-            // gain). The rest holds the vertex against its load (the membrane, bending,
-            // gravity) while it moves by `h (v + Δv)`: the work against a load that goes from
-            // `−b` (the forces' impulse at the substep's start, `rhs`) to `J − J_m` (at its
-            // end, implicit), by the trapezoid rule, `½ (J − J_m − b)·(v + Δv − v_s)`. At the
-            // mean velocity, as the inertial part, a push from rest against the cloth's tension
-            // was credited half its work and the step gained the other half: a tent pushed up
-            // by a sphere appearing under it was redone (`tests/hard_cases.rs`), and
-            // adversarial seed 5161, a cloth crammed into a moving shell, at 46 of its steps
-            // (now 3). At the end load alone a push is credited more than its work. Stopped or
-            // drawn toward its surface, a vertex gives energy up: the step's own loss, not
-            // counted.
+            // in the implicit step, relative to the surface. For linear forces implicit Euler
+            // keeps `E₁ − E₀ = J·v₁ − ½ Δvᵀ M Δv − ½ Δxᵀ K Δx` (damping takes more): the
+            // held impulse at the *end* velocity, less the step's own dissipation. Its inertial
+            // part, the momentum it changes, `J_m = m Δv` (on the held axes), is counted at the
+            // vertex's mean velocity, `J_m·(v + ½Δv − v_s)`: exactly the kinetic energy it gives
+            // the vertex (at the end velocity it would also credit the vertex's own share of
+            // the dissipation, `½ m Δv²`). The rest, the load `J − J_m` that holds the vertex
+            // against the membrane, bending and gravity at the substep's end, does
+            // `(J − J_m)·(v + Δv − v_s)` as the vertex moves. So a push from rest in the cloth's
+            // plane is credited what the step puts in, and the balance reads exactly the free
+            // vertices' dissipation, `−(½ Σ m Δv² + ½ Δxᵀ K Δx)` (`tests/hard_cases.rs`,
+            // within 1.4 %). At the mean velocity, or by the trapezoid rule between the start's
+            // `−rhs` and that end load, a push against a load that grows within the substep
+            // was credited less than the step puts in: the balance read a push from rest as
+            // gaining nothing at best, and a harder one as a gain to redo. Stopped or drawn
+            // toward its surface, a vertex gives energy up: the step's own loss, not counted.
             let inertial = held * (dv * mass);
-            let pushed = inertial.dot(v + 0.5 * dv - surface)
-                + (0.5 * (impulse - inertial - held * b)).dot(v + dv - surface);
+            let pushed =
+                inertial.dot(v + 0.5 * dv - surface) + (impulse - inertial).dot(v + dv - surface);
             work += f64::from(pushed.max(0.0));
         }
     }
