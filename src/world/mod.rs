@@ -1308,7 +1308,7 @@ impl<'a> World<'a> {
     fn refresh_frames(&mut self, iterations: u32) {
         let n = self.n;
         #[cfg(feature = "research")]
-        if self.settings.per_node_warping {
+        if step::forces::per_node_warping(&self.settings) {
             let counts = self.counts();
             crate::research::per_node::update_rotations(&mut self.a, &counts, iterations);
             return;
