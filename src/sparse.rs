@@ -33,7 +33,7 @@
 )]
 
 use core::ops::Range;
-use glam::{Mat3A, Vec3A, Vec3Swizzles};
+use glam::{DMat3, DVec3, Mat3A, Vec3A, Vec3Swizzles};
 
 /// Errors of the sparse-matrix functions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -292,6 +292,36 @@ impl BlockMatrix<'_> {
             }
         }
         self.scalars.add_differences(x, y)
+    }
+
+    /// `Σ_ij A_ij`, the sum of every block in `f64` (the lower blocks as the transposes of
+    /// the upper, the scalar couplings as `scale s_ij I3` on both sides), in a fixed order:
+    /// `Tᵀ A T` for the three translations `T`, what a rigid shift sees of `A`.
+    /// [`SparseError::LengthMismatch`] if `off` or the scalars' values are shorter than their
+    /// patterns.
+    pub fn block_sum(&self) -> Result<DMat3, SparseError> {
+        let off = self
+            .off
+            .get(..self.pattern.nnz())
+            .ok_or(SparseError::LengthMismatch)?;
+        let mut sum = DMat3::ZERO;
+        for d in self.diag {
+            sum += d.as_dmat3();
+        }
+        for m in off {
+            let m = m.as_dmat3();
+            sum += m + m.transpose();
+        }
+        if !self.scalars.is_empty() {
+            let s = self
+                .scalars
+                .off
+                .get(..self.scalars.pattern.nnz())
+                .ok_or(SparseError::LengthMismatch)?;
+            let total: f64 = s.iter().map(|&v| f64::from(v)).sum();
+            sum += DMat3::from_diagonal(DVec3::splat(2.0 * total * f64::from(self.scalars.scale)));
+        }
+        Ok(sum)
     }
 
     /// Pattern validity plus `diag.len() == n` and `off.len() >= nnz`, for the blocks and
@@ -1158,6 +1188,46 @@ pub(crate) mod tests {
             // The same product with its diagonal blocks: round-off beyond the result.
             k.mul(&v, &mut y).unwrap();
             assert!(err(&y) > size, "diagonal form: error {} of {size}", err(&y));
+        }
+    }
+
+    /// `block_sum` is `Tᵀ A T` for the translations `T`: the sum over rows of `A` times each
+    /// axis, scalar couplings included.
+    #[test]
+    fn block_sum_is_what_the_product_gives_translations() {
+        let mut rng = Lcg(5);
+        for n in [1usize, 6, 40] {
+            let (op, diag, off) = random_matrix(&mut rng, n);
+            let pairs = random_pairs(&mut rng, n, n);
+            let sop = OwnedPattern::build(n, &pairs);
+            let soff: Vec<f32> = (0..sop.cols.len()).map(|_| rng.uniform()).collect();
+            let a = BlockMatrix {
+                diag: &diag,
+                pattern: op.pattern(),
+                off: &off,
+                scalars: Scalars {
+                    pattern: sop.pattern(),
+                    off: &soff,
+                    scale: 0.37,
+                },
+            };
+            let sum = a.block_sum().unwrap();
+            let mut y = vec![Vec3A::ZERO; n];
+            for (k, axis) in [Vec3A::X, Vec3A::Y, Vec3A::Z].into_iter().enumerate() {
+                a.mul(&vec![axis; n], &mut y).unwrap();
+                let want: DVec3 = y.iter().map(|v| v.as_dvec3()).sum();
+                let scale: f64 = y.iter().map(|v| v.as_dvec3().length()).sum::<f64>() + 1.0;
+                assert!(
+                    (sum.col(k) - want).length() < 1e-5 * scale,
+                    "n {n} axis {k}: {} against {want}",
+                    sum.col(k)
+                );
+            }
+            // short values are an error, not a panic
+            let short = BlockMatrix { off: &[], ..a };
+            if op.pattern().nnz() > 0 {
+                assert_eq!(short.block_sum(), Err(SparseError::LengthMismatch));
+            }
         }
     }
 

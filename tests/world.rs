@@ -209,10 +209,10 @@ fn a_cloth_that_travels_far_keeps_its_precision() {
     c.assert_whole();
 }
 
-/// No external force, no damping: total linear momentum stays put while the cloth tumbles and
-/// vibrates.
-#[test]
-fn free_cloth_conserves_momentum() {
+/// A free anisotropic cloth tumbling and vibrating for 200 steps with no external force and no
+/// damping, solved at `tolerance`: how far its linear momentum moved, and the scale it is
+/// measured against (`Σ m |v|` at the start).
+fn free_cloth_momentum_drift(tolerance: f32, max_iterations: u32) -> (f64, f64) {
     let mat = [anisotropic()];
     let mut sheet = Sheet::grid(9, 9, 1.0, 1.0);
     // a deformed initial state
@@ -226,8 +226,8 @@ fn free_cloth_conserves_momentum() {
     let mut mem = memory(&sheet.capacity());
     let settings = Settings {
         effects: effects::WARPING | effects::BENDING,
-        tolerance: 1e-6,
-        max_iterations: 500,
+        tolerance,
+        max_iterations,
         ..Settings::default()
     };
     let mut w = world(&mut mem, &sheet, &mat, settings);
@@ -256,12 +256,30 @@ fn free_cloth_conserves_momentum() {
         let s = w.step().unwrap();
         assert!(s.converged);
     }
-    let p1 = momentum(&w);
-    assert!(
-        (p1 - p0).length() < 1e-3 * scale,
-        "momentum drift {} of {scale}",
-        (p1 - p0).length()
-    );
+    ((momentum(&w) - p0).length(), scale)
+}
+
+/// No external force, no damping: total linear momentum stays put while the cloth tumbles and
+/// vibrates.
+#[test]
+fn free_cloth_conserves_momentum() {
+    let (drift, scale) = free_cloth_momentum_drift(1e-6, 500);
+    assert!(drift < 1e-3 * scale, "momentum drift {drift} of {scale}");
+}
+
+/// The same at the default and at a loose tolerance: a solve stopped early errs in the rigid
+/// modes too, and nothing but air damping would take that drift out again; the step corrects
+/// its solve on them (`step::system`), so the momentum holds to round-off whatever the
+/// tolerance (before: 1.1e-3 and 4e-3 of the scale in 200 steps at 1e-3 and 1e-2).
+#[test]
+fn free_cloth_conserves_momentum_at_any_tolerance() {
+    for tolerance in [Settings::DEFAULT_TOLERANCE, 1e-2, 1e-1] {
+        let (drift, scale) = free_cloth_momentum_drift(tolerance, 200);
+        assert!(
+            drift < 2e-5 * scale,
+            "tolerance {tolerance}: momentum drift {drift} of {scale}"
+        );
+    }
 }
 
 /// Hang a strip from its top edge under gravity: its elongation is ρ g L² / (2 C⁻¹₁₁-direction)
