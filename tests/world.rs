@@ -838,6 +838,32 @@ fn at_rest_and_nudged(mats: &[Material]) {
     }
 }
 
+/// A free cloth at rest (no gravity, no pins, nothing touching) stays exactly where it is and
+/// costs no CG iteration: its right-hand side is round-off, which neither the CG (its
+/// absolute floor) nor the translation correction after it (skipped where the residual is
+/// below that floor) turns into motion. Corrected anyway, the round-off's net force moved
+/// it (here from the 11th step; on weft-bench's 21×21 sheet 0.35 CG iterations a step and
+/// strains of 1e-7).
+#[test]
+fn a_free_cloth_at_rest_stays_exactly_at_rest() {
+    for mats in [[isotropic(2000.0, 0.3, 0.2)], [anisotropic()]] {
+        // upright in the x–z plane, as weft-bench's sheet (a turn that rounds nothing)
+        let sheet = hanging_sheet(21, 1.0);
+        let settings = Settings {
+            effects: effects::WARPING | effects::BENDING | effects::DAMPING,
+            ..Settings::default()
+        };
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, settings);
+        let start = w.positions().to_vec();
+        for step in 0..60 {
+            let s = w.step().unwrap();
+            assert_eq!(s.iterations, 0, "step {step}: {s:?}");
+        }
+        assert!(w.positions() == start.as_slice(), "the cloth moved");
+    }
+}
+
 /// The memory aim: a 64×64-vertex world (and the default C capacity, which holds one) in
 /// under 4 MB of caller memory, all of it inside the block.
 #[test]
