@@ -245,11 +245,13 @@ pub(crate) fn solve(
 /// again: a free anisotropic cloth tumbling with no external force drifted 1.1e-3 of its
 /// momentum in 200 steps at the default tolerance, 4e-3 at 1e-2 (`tests/world.rs`). Corrected,
 /// the momentum changes by the external impulse whatever the tolerance (to the `f32` sums:
-/// 1e-6 to 4e-6 in those 200 steps, either preconditioner, tolerance 1e-3 to 1e-1). The rotations are not corrected: angular momentum is not conserved
-/// by the linearized step itself (the same cloth loses a third of it in those 200 steps at any
-/// tolerance: `K` annihilates rotations only where the cloth is unstressed); correcting the
-/// solve's share of it costs three products a solve and, at 1e-3, left a free cloth coming
-/// to rest 3 % less spin (README, "What accuracy costs in time").
+/// 1e-6 to 4e-6 in those 200 steps, either preconditioner, tolerance 1e-3 to 1e-1).
+///
+/// The rotations are not corrected: angular momentum is not conserved by the linearized step
+/// itself (the same cloth loses a third of it in those 200 steps at any tolerance: `K`
+/// annihilates rotations only where the cloth is unstressed); correcting the solve's share
+/// of it costs three products a solve and, at 1e-3, left a free cloth coming to rest with
+/// only 3 % less spin (README, "What accuracy costs in time").
 ///
 /// Cost: one pass over the blocks (`Tᵀ A T = Σ_ij A_ij`) and, where the solve did not keep
 /// `A Δv` (`kept`: `adv` holds it), one product into `adv`. [`solve`] skips it where the
