@@ -810,6 +810,42 @@ pub(crate) mod tests {
         pairs
     }
 
+    /// Cloth-like: mass `mass` per vertex (±20 %), per coupling a stiff 3D spring along the
+    /// segment between `pos` (random directions if None) plus a weak isotropic part, added as
+    /// `k` on both diagonal blocks and `−k` between them: every row of the stiffness sums to
+    /// zero, as a cloth's does (module docs).
+    pub(crate) fn spring_system(
+        rng: &mut Lcg,
+        n: usize,
+        pairs: &[[u32; 2]],
+        stiffness: f32,
+        mass: f32,
+        pos: Option<&[Vec3A]>,
+    ) -> (OwnedPattern, Vec<Mat3A>, Vec<Mat3A>) {
+        let op = OwnedPattern::build(n, pairs);
+        let mut diag: Vec<Mat3A> = (0..n)
+            .map(|_| Mat3A::from_diagonal(glam::Vec3::splat(mass * (1.0 + 0.2 * rng.uniform()))))
+            .collect();
+        let mut off = vec![Mat3A::ZERO; op.cols.len()];
+        let p = op.pattern();
+        for &[a, b] in pairs {
+            if a == b {
+                continue;
+            }
+            let (a, b) = (a as usize, b as usize);
+            let d = match pos {
+                Some(x) => (x[b] - x[a]).normalize(),
+                None => rng.vec().normalize(),
+            };
+            let k =
+                stiffness * (Mat3A::from_cols(d * d.x, d * d.y, d * d.z) + 0.01 * Mat3A::IDENTITY);
+            add_block(&p, &mut diag, &mut off, a, a, k).unwrap();
+            add_block(&p, &mut diag, &mut off, b, b, k).unwrap();
+            add_block(&p, &mut diag, &mut off, a, b, -k).unwrap();
+        }
+        (op, diag, off)
+    }
+
     /// Dense 3n×3n row-major f64 expansion of a block matrix.
     pub(crate) fn dense(diag: &[Mat3A], p: &Pattern, off: &[Mat3A]) -> Vec<f64> {
         let n = diag.len();

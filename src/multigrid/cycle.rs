@@ -1319,7 +1319,7 @@ mod tests {
     use super::*;
     use crate::pcg::tests::Scratch;
     use crate::pcg::{self, solve_with, Settings};
-    use crate::sparse::tests::{dense, random_pairs, Lcg, OwnedPattern};
+    use crate::sparse::tests::{dense, random_pairs, spring_system, Lcg, OwnedPattern};
     use crate::sparse::{add_block, Scalars};
 
     /// `sym_mul` in SIMD lanes is the three scalar rows, bit for bit (values over 40 binades,
@@ -1393,8 +1393,7 @@ mod tests {
             Self::springs(rng, n, &pairs, stiffness, 1.0, None)
         }
 
-        /// Cloth-like: mass `m` per vertex, per coupling a stiff 3D spring along the segment
-        /// between `pos` (random directions if None) plus a weak isotropic part.
+        /// Cloth-like: [`spring_system`].
         fn springs(
             rng: &mut Lcg,
             n: usize,
@@ -1403,29 +1402,7 @@ mod tests {
             mass: f32,
             pos: Option<&[Vec3A]>,
         ) -> Self {
-            let op = OwnedPattern::build(n, pairs);
-            let mut diag: Vec<Mat3A> = (0..n)
-                .map(|_| {
-                    Mat3A::from_diagonal(glam::Vec3::splat(mass * (1.0 + 0.2 * rng.uniform())))
-                })
-                .collect();
-            let mut off = vec![Mat3A::ZERO; op.cols.len()];
-            let p = op.pattern();
-            for &[a, b] in pairs {
-                if a == b {
-                    continue;
-                }
-                let (a, b) = (a as usize, b as usize);
-                let d = match pos {
-                    Some(x) => (x[b] - x[a]).normalize(),
-                    None => rng.vec().normalize(),
-                };
-                let k = stiffness
-                    * (Mat3A::from_cols(d * d.x, d * d.y, d * d.z) + 0.01 * Mat3A::IDENTITY);
-                add_block(&p, &mut diag, &mut off, a, a, k).unwrap();
-                add_block(&p, &mut diag, &mut off, b, b, k).unwrap();
-                add_block(&p, &mut diag, &mut off, a, b, -k).unwrap();
-            }
+            let (op, diag, off) = spring_system(rng, n, pairs, stiffness, mass, pos);
             Self::blocks(op, diag, off)
         }
 

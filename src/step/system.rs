@@ -313,31 +313,8 @@ pub(crate) fn outer(a: Vec3A, b: Vec3A) -> Mat3A {
 #[allow(clippy::indexing_slicing, clippy::unwrap_used)]
 mod tests {
     use super::*;
-    use crate::sparse::tests::{random_pairs, Lcg, OwnedPattern};
-    use crate::sparse::{add_block, Scalars};
-
-    /// `A = M + K`, `K` a sum of edge springs `k_e (x_a − x_b)` with random SPD `k_e`: every
-    /// row of `K` sums to zero, as a cloth's stiffness does.
-    fn system(rng: &mut Lcg, n: usize) -> (OwnedPattern, Vec<Mat3A>, Vec<Mat3A>) {
-        let pairs = random_pairs(rng, n, 2 * n);
-        let op = OwnedPattern::build(n, &pairs);
-        let mut diag: Vec<Mat3A> = (0..n)
-            .map(|_| Mat3A::from_diagonal(Vec3::splat(0.5 + 0.4 * rng.uniform())))
-            .collect();
-        let mut off = vec![Mat3A::ZERO; op.cols.len()];
-        let p = op.pattern();
-        for &[a, b] in &pairs {
-            if a != b {
-                let l = rng.mat();
-                let k = 20.0 * (l * l.transpose());
-                let (a, b) = (a as usize, b as usize);
-                add_block(&p, &mut diag, &mut off, a, a, k).unwrap();
-                add_block(&p, &mut diag, &mut off, b, b, k).unwrap();
-                add_block(&p, &mut diag, &mut off, a, b, -k).unwrap();
-            }
-        }
-        (op, diag, off)
-    }
+    use crate::sparse::tests::{random_pairs, spring_system, Lcg};
+    use crate::sparse::Scalars;
 
     fn energy_norm(a: &sparse::BlockMatrix<'_>, e: &[Vec3A]) -> f64 {
         let mut ae = vec![Vec3A::ZERO; e.len()];
@@ -351,7 +328,9 @@ mod tests {
     fn the_translation_correction_removes_the_residual_s_net_force() {
         let mut rng = Lcg(3);
         for n in [1usize, 30, 80] {
-            let (op, diag, off) = system(&mut rng, n);
+            // mass plus springs: every row of the stiffness sums to zero, as a cloth's does
+            let pairs = random_pairs(&mut rng, n, 2 * n);
+            let (op, diag, off) = spring_system(&mut rng, n, &pairs, 20.0, 0.7, None);
             let a = sparse::BlockMatrix {
                 diag: &diag,
                 pattern: op.pattern(),
