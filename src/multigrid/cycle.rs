@@ -1390,19 +1390,7 @@ mod tests {
         /// Random couplings with random SPD edge terms.
         fn random(rng: &mut Lcg, n: usize, stiffness: f32) -> Self {
             let pairs = random_pairs(rng, n, 2 * n);
-            Self::springs(rng, n, &pairs, stiffness, 1.0, None)
-        }
-
-        /// Cloth-like: [`spring_system`].
-        fn springs(
-            rng: &mut Lcg,
-            n: usize,
-            pairs: &[[u32; 2]],
-            stiffness: f32,
-            mass: f32,
-            pos: Option<&[Vec3A]>,
-        ) -> Self {
-            let (op, diag, off) = spring_system(rng, n, pairs, stiffness, mass, pos);
+            let (op, diag, off) = spring_system(rng, n, &pairs, stiffness, 1.0, None);
             Self::blocks(op, diag, off)
         }
 
@@ -1548,24 +1536,24 @@ mod tests {
         let (edges, hinges) = couplings_of(tris);
         let mut pairs = edges.clone();
         pairs.extend_from_slice(&hinges);
-        let mut sys = System::springs(rng, n, &edges, ratio, 1.0, Some(pos));
+        let (edge_op, edge_diag, edge_off) = spring_system(rng, n, &edges, ratio, 1.0, Some(pos));
         // Re-pattern with the hinge pairs too (weak bending-like terms).
         let op = OwnedPattern::build(n, &pairs);
         let p = op.pattern();
         let mut off = vec![Mat3A::ZERO; op.cols.len()];
         for i in 0..n {
-            for (k, j) in sys.op.pattern().upper(i) {
-                off[p.find(i, j).unwrap()] = sys.off[k];
+            for (k, j) in edge_op.pattern().upper(i) {
+                off[p.find(i, j).unwrap()] = edge_off[k];
             }
         }
-        let mut diag = sys.diag.clone();
+        let mut diag = edge_diag;
         for &[a, b] in &hinges {
             let k = 1e-3 * ratio * Mat3A::IDENTITY;
             add_block(&p, &mut diag, &mut off, a as usize, a as usize, k).unwrap();
             add_block(&p, &mut diag, &mut off, b as usize, b as usize, k).unwrap();
             add_block(&p, &mut diag, &mut off, a as usize, b as usize, -k).unwrap();
         }
-        sys = System::blocks(op, diag, off);
+        let sys = System::blocks(op, diag, off);
         Cloth {
             sys,
             ring: ring(n, &edges),
