@@ -225,7 +225,17 @@ pub(crate) fn solve(
     // A solve whose whole residual is below the floor has no translation error worth a
     // product (a cloth at rest costs what it did).
     if !constrained && !settled {
-        correct_translation(&op, rhs, dv, stats.product_kept, live_mut(a.w_q, n)?)?;
+        let scratch = [live_mut(a.w_r, n)?, live_mut(a.w_c, n)?];
+        let kept = stats.product_kept;
+        correct_rigid(
+            &op,
+            rhs,
+            live(a.x, n)?,
+            dv,
+            kept,
+            live_mut(a.w_q, n)?,
+            scratch,
+        )?;
     }
     Ok(Solved {
         stats,
@@ -233,63 +243,182 @@ pub(crate) fn solve(
     })
 }
 
-/// The Galerkin correction of an unconstrained solve's `Δv` on the three translations `T`:
-/// `Δv += t` (the same `t` at every vertex) with `(Tᵀ A T) t = Tᵀ (rhs − A Δv)`, the shift
-/// that brings `Δv` closest to the exact solution in the `A`-norm (so never farther), and
-/// leaves a residual with no net force.
+/// The Galerkin correction of an unconstrained solve's `Δv` on the six rigid modes `W`, the
+/// translations and the rotations about the vertices' centroid `c`: `Δv_i += t + ω × (x_i − c)`
+/// with `(Wᵀ A W) (t, ω) = Wᵀ (rhs − A Δv)`, the rigid motion that brings `Δv` closest to the
+/// exact solution in the `A`-norm (so never farther), and leaves a residual with no net force
+/// and no net torque about `c`.
 ///
-/// Why: with nothing holding the cloth, `K` (elastic, bending, damping) annihilates
-/// translations, so the exact step changes the momentum by the external impulse alone,
-/// `c_m Σ m Δv = Σ rhs`. A CG stopped at its tolerance leaves an error of that relative size
-/// in every mode, the translations included, and only air damping would take a drift out
-/// again: a free anisotropic cloth tumbling with no external force drifted 1.1e-3 of its
-/// momentum in 200 steps at the default tolerance, 4e-3 at 1e-2 (`tests/world.rs`). Corrected,
-/// the momentum changes by the external impulse whatever the tolerance (to the `f32` sums:
-/// 1e-6 to 4e-6 in those 200 steps, either preconditioner, tolerance 1e-3 to 1e-1).
+/// Why: with nothing holding the cloth, `K` (elastic, bending, damping) annihilates the
+/// translations, so the exact step changes the momentum by the external impulse alone. A CG
+/// stopped at its tolerance leaves an error of that relative size in every mode, the rigid
+/// ones included, and nothing but air damping takes it out again: a free anisotropic cloth
+/// tumbling with no external force drifted 1.1e-3 of its momentum in 200 steps at the default
+/// tolerance, 4e-3 at 1e-2 (`tests/world.rs`); corrected on the translations, 1e-6 to 4e-6,
+/// either preconditioner, tolerance 1e-3 to 1e-1. The rotations are corrected too because
+/// their error is what a loose tolerance leaves in a free cloth: at 1e-2, without them, a
+/// free crumpled cloth still spun after 10 s (9.5e-6 J, 1.7e-3 of its peak) and a cloth
+/// coasting 2 km drifted apart at 5.1e-3 m/s (1.5e-3 at 1e-3); with them both rest (the tests
+/// `a_free_cloth_rests_at_a_loose_tolerance` and `a_cloth_that_travels_far_keeps_its_precision`).
+/// `K` annihilates a rotation only where the cloth is unstressed, so the linearized step still
+/// loses angular momentum of its own (README, Limits); this removes only the solve's share.
 ///
-/// The rotations are not corrected: angular momentum is not conserved by the linearized step
-/// itself (the same cloth loses a third of it in those 200 steps at any tolerance: `K`
-/// annihilates rotations only where the cloth is unstressed); correcting the solve's share
-/// of it costs three products a solve and, at 1e-3, left a free cloth coming to rest with
-/// only 3 % less spin (README, "What accuracy costs in time").
-///
-/// Cost: one pass over the blocks (`Tᵀ A T = Σ_ij A_ij`) and, where the solve did not keep
-/// `A Δv` (`kept`: `adv` holds it), one product into `adv`. [`solve`] skips it where the
-/// solve's whole residual is below its absolute floor: a cloth at rest, whose right-hand side
-/// is round-off, stays exactly at rest (as the CG's floor keeps it). Skipping every correction
-/// whose own energy was below the floor instead let the drift build up to 1.5e-5 of the scale
-/// in those 200 steps (block Jacobi at 1e-3; 4e-6 now).
-fn correct_translation(
+/// Cost: one pass over the blocks (`Tᵀ A T = Σ_ij A_ij`), three products (`A` times each
+/// rotation field, built in `scratch[0]`, into `scratch[1]`) and, where the solve did not keep
+/// `A Δv` (`kept`: `adv` holds it), one product into `adv`. A cloth whose rotation about some
+/// axis is no motion (all its vertices on that axis) gets a lift of 1e-9 of the Gram matrix's
+/// trace there. [`solve`] skips it where the solve's whole residual is below its absolute
+/// floor: a cloth at rest, whose right-hand side is round-off, stays exactly at rest (as the
+/// CG's floor keeps it). Skipping every correction whose own energy was below the floor
+/// instead let the drift build up to 1.5e-5 of the scale in those 200 steps (block Jacobi at
+/// 1e-3; 4e-6 with the solve's residual as the gate).
+fn correct_rigid(
     op: &sparse::BlockMatrix<'_>,
     rhs: &[Vec3A],
+    x: &[Vec3A],
     dv: &mut [Vec3A],
     kept: bool,
     adv: &mut [Vec3A],
+    scratch: [&mut [Vec3A]; 2],
 ) -> Result<(), StepError> {
     let breakdown = |_| StepError::SolverBreakdown;
+    let [field, image] = scratch;
     if !kept {
         op.mul(dv, adv).map_err(breakdown)?;
     }
-    // Tᵀ r: the residual's net force
+    let n = x.len().max(1) as f64;
+    let centre = (x.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n).as_vec3();
+    let centre = Vec3A::from(centre);
+    let axes = [Vec3A::X, Vec3A::Y, Vec3A::Z];
+    // Gram matrix G = Wᵀ A W (translations first) and g = Wᵀ (rhs − A Δv)
+    let mut gram = [[0.0f64; 6]; 6];
+    let mut g = [0.0f64; 6];
+    let a_tt = op.block_sum().map_err(breakdown)?;
+    for (j, row) in gram.iter_mut().take(3).enumerate() {
+        for (k, entry) in row.iter_mut().take(3).enumerate() {
+            *entry = a_tt.col(k)[j];
+        }
+    }
     let net: DVec3 = rhs
         .iter()
         .zip(adv.iter())
         .map(|(&b, &q)| (b - q).as_dvec3())
         .sum();
-    let a_tt = op.block_sum().map_err(breakdown)?;
-    let det = a_tt.determinant();
-    if det.is_nan() || det <= 0.0 {
+    let torque: DVec3 = x
+        .iter()
+        .zip(rhs.iter().zip(adv.iter()))
+        .map(|(&p, (&b, &q))| (p - centre).as_dvec3().cross((b - q).as_dvec3()))
+        .sum();
+    g[..3].copy_from_slice(&net.to_array());
+    g[3..].copy_from_slice(&torque.to_array());
+    for (k, &axis) in axes.iter().enumerate() {
+        for (f, &p) in field.iter_mut().zip(x) {
+            *f = axis.cross(p - centre);
+        }
+        op.mul(field, image).map_err(breakdown)?;
+        // Tᵀ A R_k (the image's net force) and R_jᵀ A R_k (its torque about c along e_j)
+        let force: DVec3 = image.iter().map(|q| q.as_dvec3()).sum();
+        let moment: DVec3 = x
+            .iter()
+            .zip(image.iter())
+            .map(|(&p, &q)| (p - centre).as_dvec3().cross(q.as_dvec3()))
+            .sum();
+        for (j, (f, m)) in force
+            .to_array()
+            .into_iter()
+            .zip(moment.to_array())
+            .enumerate()
+        {
+            set(&mut gram, j, 3 + k, f);
+            set(&mut gram, 3 + k, j, f);
+            set(&mut gram, 3 + j, 3 + k, m);
+        }
+    }
+    // the rotation block is symmetric up to round-off: use its symmetric part
+    for j in 3..6 {
+        for k in (j + 1)..6 {
+            let mean = 0.5 * (get(&gram, j, k) + get(&gram, k, j));
+            set(&mut gram, j, k, mean);
+            set(&mut gram, k, j, mean);
+        }
+    }
+    let Some(s) = solve_spd6(gram, g) else {
+        return Ok(());
+    };
+    let descent: f64 = s.iter().zip(&g).map(|(a, b)| a * b).sum();
+    if !(descent > 0.0 && s.iter().all(|v| v.is_finite())) {
         return Ok(());
     }
-    let t = a_tt.inverse() * net;
-    if !(t.is_finite() && t.dot(net) > 0.0) {
-        return Ok(());
-    }
-    let t = Vec3A::from(t.as_vec3());
-    for d in dv.iter_mut() {
-        *d += t;
+    let t = Vec3A::new(s[0] as f32, s[1] as f32, s[2] as f32);
+    let omega = Vec3A::new(s[3] as f32, s[4] as f32, s[5] as f32);
+    for (d, &p) in dv.iter_mut().zip(x) {
+        *d += t + omega.cross(p - centre);
     }
     Ok(())
+}
+
+fn get(m: &[[f64; 6]; 6], j: usize, k: usize) -> f64 {
+    m.get(j).and_then(|r| r.get(k)).copied().unwrap_or(0.0)
+}
+
+fn set(m: &mut [[f64; 6]; 6], j: usize, k: usize, value: f64) {
+    if let Some(e) = m.get_mut(j).and_then(|r| r.get_mut(k)) {
+        *e = value;
+    }
+}
+
+/// `G s = g` for a symmetric positive semidefinite 6×6 `G` by Cholesky, with a lift of 1e-9 of
+/// its mean diagonal (a direction it does not see gets no correction); `None` if it is not
+/// positive even so.
+fn solve_spd6(mut m: [[f64; 6]; 6], g: [f64; 6]) -> Option<[f64; 6]> {
+    let lift = 1e-9 * (0..6).map(|i| get(&m, i, i)).sum::<f64>() / 6.0;
+    if !(lift > 0.0 && lift.is_finite()) {
+        return None;
+    }
+    for i in 0..6 {
+        let lifted = get(&m, i, i) + lift;
+        set(&mut m, i, i, lifted);
+    }
+    // lower factor L in place: m = L Lᵀ
+    for j in 0..6 {
+        let mut d = get(&m, j, j);
+        for k in 0..j {
+            d -= get(&m, j, k) * get(&m, j, k);
+        }
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let d = d.sqrt();
+        set(&mut m, j, j, d);
+        for i in (j + 1)..6 {
+            let mut v = get(&m, i, j);
+            for k in 0..j {
+                v -= get(&m, i, k) * get(&m, j, k);
+            }
+            set(&mut m, i, j, v / d);
+        }
+    }
+    let mut y = [0.0f64; 6];
+    for i in 0..6 {
+        let mut v = g.get(i).copied().unwrap_or(0.0);
+        for k in 0..i {
+            v -= get(&m, i, k) * y.get(k).copied().unwrap_or(0.0);
+        }
+        if let Some(e) = y.get_mut(i) {
+            *e = v / get(&m, i, i);
+        }
+    }
+    let mut s = [0.0f64; 6];
+    for i in (0..6).rev() {
+        let mut v = y.get(i).copied().unwrap_or(0.0);
+        for k in (i + 1)..6 {
+            v -= get(&m, k, i) * s.get(k).copied().unwrap_or(0.0);
+        }
+        if let Some(e) = s.get_mut(i) {
+            *e = v / get(&m, i, i);
+        }
+    }
+    Some(s)
 }
 
 /// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
@@ -322,10 +451,11 @@ mod tests {
         e.iter().zip(&ae).map(|(&u, &v)| pcg::dot64(u, v)).sum()
     }
 
-    /// The correction leaves a residual with no net force and an error no larger in the
-    /// `A`-norm, whatever the approximate solution it starts from, with `A Δv` given or not.
+    /// The correction leaves a residual with no net force and no net torque and an error no
+    /// larger in the `A`-norm, whatever the approximate solution it starts from, with `A Δv`
+    /// given or not.
     #[test]
-    fn the_translation_correction_removes_the_residual_s_net_force() {
+    fn the_rigid_correction_removes_the_residual_s_net_force_and_torque() {
         let mut rng = Lcg(3);
         for n in [1usize, 30, 80] {
             // mass plus springs: every row of the stiffness sums to zero, as a cloth's does
@@ -337,44 +467,56 @@ mod tests {
                 off: &off,
                 scalars: Scalars::NONE,
             };
+            let x: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let centre = x.iter().fold(Vec3A::ZERO, |s, &p| s + p) / n as f32;
             let exact: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
             let mut rhs = vec![Vec3A::ZERO; n];
             a.mul(&exact, &mut rhs).unwrap();
-            // an approximate solution: a drift plus some noise
-            let drift = rng.vec();
+            // an approximate solution: a rigid drift plus some noise
+            let (drift, spin) = (rng.vec(), rng.vec());
             let noisy: Vec<Vec3A> = exact.iter().map(|&e| e + 0.05 * rng.vec()).collect();
-            let start: Vec<Vec3A> = noisy.iter().map(|&e| e + drift).collect();
+            let start: Vec<Vec3A> = noisy
+                .iter()
+                .zip(&x)
+                .map(|(&e, &p)| e + drift + spin.cross(p - centre))
+                .collect();
             let error = |dv: &[Vec3A]| {
                 let e: Vec<Vec3A> = dv.iter().zip(&exact).map(|(&d, &e)| d - e).collect();
                 energy_norm(&a, &e)
             };
+            let mut scratch = (vec![Vec3A::NAN; n], vec![Vec3A::NAN; n]);
             let mut adv = vec![Vec3A::NAN; n];
             let mut dv = start.clone();
-            correct_translation(&a, &rhs, &mut dv, false, &mut adv).unwrap();
-            // the best shift is at least as good as taking the drift out exactly
+            let lent = [&mut scratch.0[..], &mut scratch.1[..]];
+            correct_rigid(&a, &rhs, &x, &mut dv, false, &mut adv, lent).unwrap();
+            // the best rigid motion is at least as good as taking the drift out exactly
             let (before, after, best) = (error(&start), error(&dv), error(&noisy));
             assert!(
                 after <= best * (1.0 + 1e-4) && after < before,
                 "n {n}: error {after} after, {before} before, {best} without the drift"
             );
             a.mul(&dv, &mut adv).unwrap();
-            let (mut force, mut size) = (DVec3::ZERO, 0.0);
-            for (&b, &q) in rhs.iter().zip(&adv) {
-                force += (b - q).as_dvec3();
-                size += b.as_dvec3().length();
+            let (mut force, mut torque, mut size) = (DVec3::ZERO, DVec3::ZERO, 0.0);
+            for ((&b, &q), &p) in rhs.iter().zip(&adv).zip(&x) {
+                let r = (b - q).as_dvec3();
+                force += r;
+                torque += (p - centre).as_dvec3().cross(r);
+                size += b.as_dvec3().length() * (1.0 + (p - centre).as_dvec3().length());
             }
             assert!(
-                force.length() < 1e-5 * size,
-                "n {n}: net force {force} of {size}"
+                force.length() < 1e-5 * size && torque.length() < 1e-5 * size,
+                "n {n}: net force {force}, torque {torque} of {size}"
             );
             // the same from a product the solve kept
             let mut kept = start.clone();
             a.mul(&kept, &mut adv).unwrap();
-            correct_translation(&a, &rhs, &mut kept, true, &mut adv).unwrap();
+            let lent = [&mut scratch.0[..], &mut scratch.1[..]];
+            correct_rigid(&a, &rhs, &x, &mut kept, true, &mut adv, lent).unwrap();
             assert_eq!(kept, dv);
             // from the exact solution (to f32) there is nothing to correct above the noise
             let mut dv = exact.clone();
-            correct_translation(&a, &rhs, &mut dv, false, &mut adv).unwrap();
+            let lent = [&mut scratch.0[..], &mut scratch.1[..]];
+            correct_rigid(&a, &rhs, &x, &mut dv, false, &mut adv, lent).unwrap();
             assert!(error(&dv) <= 1e-9 * before, "n {n}: {}", error(&dv));
         }
     }
