@@ -388,7 +388,7 @@ fn solve_spd6(mut m: [[f64; 6]; 6], g: [f64; 6]) -> Option<[f64; 6]> {
         if d.is_nan() || d <= 0.0 {
             return None;
         }
-        let d = d.sqrt();
+        let d = libm::sqrt(d);
         set(&mut m, j, j, d);
         for i in (j + 1)..6 {
             let mut v = get(&m, i, j);
