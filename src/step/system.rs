@@ -259,15 +259,16 @@ pub(crate) fn solve(
 /// their error is what a loose tolerance leaves in a free cloth: at 1e-2, without them, a
 /// free crumpled cloth still spun after 10 s (9.5e-6 J, 1.7e-3 of its peak) and a cloth
 /// coasting 2 km drifted apart at 5.1e-3 m/s (1.5e-3 at 1e-3); with them both rest (the tests
-/// `a_free_cloth_rests_at_a_loose_tolerance` and `a_cloth_that_travels_far_keeps_its_precision`).
+/// `a_free_cloth_rests_at_a_loose_tolerance` and
+/// `a_cloth_that_travels_far_at_a_loose_tolerance_stays_whole`).
 /// `K` annihilates a rotation only where the cloth is unstressed, so the linearized step still
 /// loses angular momentum of its own (README, Limits); this removes only the solve's share.
 ///
 /// Cost: one pass over the blocks (`Tᵀ A T = Σ_ij A_ij`), three products (`A` times each
 /// rotation field, built in `scratch[0]`, into `scratch[1]`) and, where the solve did not keep
 /// `A Δv` (`kept`: `adv` holds it), one product into `adv`. A cloth whose rotation about some
-/// axis is no motion (all its vertices on that axis) gets a lift of 1e-9 of the Gram matrix's
-/// trace there. [`solve`] skips it where the solve's whole residual is below its absolute
+/// axis is no motion (all its vertices on that axis) is held by a lift of the Gram matrix's
+/// diagonal by 1e-9 of its mean ([`solve_spd6`]). [`solve`] skips it where the solve's whole residual is below its absolute
 /// floor: a cloth at rest, whose right-hand side is round-off, stays exactly at rest (as the
 /// CG's floor keeps it). Skipping every correction whose own energy was below the floor
 /// instead let the drift build up to 1.5e-5 of the scale in those 200 steps (block Jacobi at
