@@ -176,8 +176,75 @@ fn coarse_mul_body(
 
 /// Packed lower-triangular index of `(r, c)`, `r >= c`.
 #[inline(always)]
-fn tri(r: usize, c: usize) -> usize {
+pub(crate) fn tri(r: usize, c: usize) -> usize {
     r * (r + 1) / 2 + c
+}
+
+/// Cholesky `A = L Lᵀ` in `f64`, in place, of the symmetric `m × m` matrix held as its packed
+/// lower triangle (entry `(r, c)`, `c ≤ r`, at [`tri`]`(r, c)`): the coarsest level's, and
+/// the six rigid modes' of `step::system`. A pivot not above [`PIVOT`] times the largest
+/// diagonal entry (or not finite) marks a direction `A` does not see: its column of `L` is
+/// zero, and [`solve_packed`] gives it zero output. `None` if `dense` is too short.
+pub(crate) fn factor_packed(dense: &mut [f64], m: usize) -> Option<()> {
+    let mut scale = 0.0f64;
+    for k in 0..m {
+        scale = scale.max(dense.get(tri(k, k)).copied().unwrap_or(0.0));
+    }
+    for j in 0..m {
+        let row_j = tri(j, 0);
+        let mut d = dense.get(row_j + j).copied()?;
+        for k in 0..j {
+            let l = dense.get(row_j + k).copied()?;
+            d -= l * l;
+        }
+        let ok = d > PIVOT * scale && d.is_finite();
+        let ljj = if ok { libm::sqrt(d) } else { 0.0 };
+        *dense.get_mut(row_j + j)? = ljj;
+        for i in j + 1..m {
+            let row_i = tri(i, 0);
+            let v = if ok {
+                let mut s = dense.get(row_i + j).copied()?;
+                for k in 0..j {
+                    let (a, b) = (
+                        dense.get(row_i + k).copied()?,
+                        dense.get(row_j + k).copied()?,
+                    );
+                    s -= a * b;
+                }
+                s / ljj
+            } else {
+                0.0 // decoupled direction: zero column
+            };
+            *dense.get_mut(row_i + j)? = v;
+        }
+    }
+    Some(())
+}
+
+/// `y = A⁻¹ y` from the factor of [`factor_packed`] (`m = y.len()`); a decoupled direction
+/// gets zero. `None` if `dense` is too short.
+pub(crate) fn solve_packed(dense: &[f64], y: &mut [f64]) -> Option<()> {
+    let m = y.len();
+    // L y' = y
+    for i in 0..m {
+        let row = tri(i, 0);
+        let lii = dense.get(row + i).copied()?;
+        let mut s = y.get(i).copied()?;
+        for k in 0..i {
+            s -= dense.get(row + k).copied()? * y.get(k).copied()?;
+        }
+        *y.get_mut(i)? = if lii > 0.0 { s / lii } else { 0.0 };
+    }
+    // Lᵀ x = y'
+    for i in (0..m).rev() {
+        let lii = dense.get(tri(i, i)).copied()?;
+        let mut s = y.get(i).copied()?;
+        for k in i + 1..m {
+            s -= dense.get(tri(k, i)).copied()? * y.get(k).copied()?;
+        }
+        *y.get_mut(i)? = if lii > 0.0 { s / lii } else { 0.0 };
+    }
+    Some(())
 }
 
 /// The multilevel preconditioner for one solve: the hierarchy of [`build`] with the coarse
@@ -504,39 +571,7 @@ impl<'a> Multigrid<'a> {
                 }
             }
         }
-        let mut scale = 0.0f64;
-        for k in 0..m {
-            scale = scale.max(dense.get(tri(k, k)).copied().unwrap_or(0.0));
-        }
-        for j in 0..m {
-            let row_j = tri(j, 0);
-            let mut d = dense.get(row_j + j).copied().ok_or(MgError::Internal)?;
-            for k in 0..j {
-                let l = dense.get(row_j + k).copied().ok_or(MgError::Internal)?;
-                d -= l * l;
-            }
-            let ok = d > PIVOT * scale && d.is_finite();
-            let ljj = if ok { libm::sqrt(d) } else { 0.0 };
-            *dense.get_mut(row_j + j).ok_or(MgError::Internal)? = ljj;
-            for i in j + 1..m {
-                let row_i = tri(i, 0);
-                let v = if ok {
-                    let mut s = dense.get(row_i + j).copied().ok_or(MgError::Internal)?;
-                    for k in 0..j {
-                        let (a, b) = (
-                            dense.get(row_i + k).copied().ok_or(MgError::Internal)?,
-                            dense.get(row_j + k).copied().ok_or(MgError::Internal)?,
-                        );
-                        s -= a * b;
-                    }
-                    s / ljj
-                } else {
-                    0.0 // decoupled direction: zero column
-                };
-                *dense.get_mut(row_i + j).ok_or(MgError::Internal)? = v;
-            }
-        }
-        Ok(())
+        factor_packed(dense, m).ok_or(MgError::Internal)
     }
 
     /// The cycle: `z = B r` for the finest level's `r`, `z`, and `t` (scratch).
@@ -888,28 +923,7 @@ impl Ops<'_> {
             for (k, yk) in y.iter_mut().enumerate() {
                 *yk = f64::from(r.get(k / 3).ok_or(MgError::Internal)?[k % 3]);
             }
-            let dense: &[f64] = self.dense;
-            // L y' = y
-            for i in 0..m {
-                let row = tri(i, 0);
-                let lii = dense.get(row + i).copied().ok_or(MgError::Internal)?;
-                let mut s = y.get(i).copied().ok_or(MgError::Internal)?;
-                for k in 0..i {
-                    s -= dense.get(row + k).copied().ok_or(MgError::Internal)?
-                        * y.get(k).copied().ok_or(MgError::Internal)?;
-                }
-                *y.get_mut(i).ok_or(MgError::Internal)? = if lii > 0.0 { s / lii } else { 0.0 };
-            }
-            // Lᵀ x = y'
-            for i in (0..m).rev() {
-                let lii = dense.get(tri(i, i)).copied().ok_or(MgError::Internal)?;
-                let mut s = y.get(i).copied().ok_or(MgError::Internal)?;
-                for k in i + 1..m {
-                    s -= dense.get(tri(k, i)).copied().ok_or(MgError::Internal)?
-                        * y.get(k).copied().ok_or(MgError::Internal)?;
-                }
-                *y.get_mut(i).ok_or(MgError::Internal)? = if lii > 0.0 { s / lii } else { 0.0 };
-            }
+            solve_packed(self.dense, y).ok_or(MgError::Internal)?;
             for (i, zi) in z.iter_mut().enumerate() {
                 let g = |c: usize| y.get(3 * i + c).copied().unwrap_or(0.0) as f32;
                 *zi = Vec3A::new(g(0), g(1), g(2));

@@ -506,4 +506,5 @@ mod cycle;
 mod hierarchy;
 
 pub use cycle::Multigrid;
+pub(crate) use cycle::{factor_packed, solve_packed, tri};
 pub use hierarchy::{build, Graph};

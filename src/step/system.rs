@@ -266,11 +266,11 @@ pub(crate) fn solve(
 ///
 /// Cost: one pass over the blocks (`Tᵀ A T = Σ_ij A_ij`), three products (`A` times each
 /// rotation field, built in `scratch[0]`, into `scratch[1]`) and, where the solve did not keep
-/// `A Δv` (`kept`: `adv` holds it), one product into `adv`. A cloth whose rotation about some
-/// axis is no motion (all its vertices on that axis) is held by a lift of the Gram matrix's
-/// diagonal by 1e-9 of its mean ([`solve_spd6`]). [`solve`] skips it where the solve's whole residual is below its absolute
-/// floor: a cloth at rest, whose right-hand side is round-off, stays exactly at rest (as the
-/// CG's floor keeps it). Skipping every correction whose own energy was below the floor
+/// `A Δv` (`kept`: `adv` holds it), one product into `adv`; a 6×6 Cholesky in `f64`, the
+/// coarsest multigrid level's (`multigrid::factor_packed`), which leaves a rotation that is no
+/// motion (all the vertices on its axis) uncorrected. [`solve`] skips it where the solve's
+/// whole residual is below its absolute floor: a cloth at rest, whose right-hand side is
+/// round-off, stays exactly at rest (as the CG's floor keeps it). Skipping every correction whose own energy was below the floor
 /// instead let the drift build up to 1.5e-5 of the scale in those 200 steps (block Jacobi at
 /// 1e-3; 4e-6 with the solve's residual as the gate).
 fn correct_rigid(
@@ -291,15 +291,7 @@ fn correct_rigid(
     let centre = (x.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / n).as_vec3();
     let centre = Vec3A::from(centre);
     let axes = [Vec3A::X, Vec3A::Y, Vec3A::Z];
-    // Gram matrix G = Wᵀ A W (translations first) and g = Wᵀ (rhs − A Δv)
-    let mut gram = [[0.0f64; 6]; 6];
-    let mut g = [0.0f64; 6];
-    let a_tt = op.block_sum().map_err(breakdown)?;
-    for (j, row) in gram.iter_mut().take(3).enumerate() {
-        for (k, entry) in row.iter_mut().take(3).enumerate() {
-            *entry = a_tt.col(k)[j];
-        }
-    }
+    // g = Wᵀ (rhs − A Δv), translations first: the residual's net force and its torque about c
     let net: DVec3 = rhs
         .iter()
         .zip(adv.iter())
@@ -310,42 +302,56 @@ fn correct_rigid(
         .zip(rhs.iter().zip(adv.iter()))
         .map(|(&p, (&b, &q))| (p - centre).as_dvec3().cross((b - q).as_dvec3()))
         .sum();
+    let mut g = [0.0f64; 6];
     g[..3].copy_from_slice(&net.to_array());
     g[3..].copy_from_slice(&torque.to_array());
-    for (k, &axis) in axes.iter().enumerate() {
+    // The Gram matrix G = Wᵀ A W as its packed lower triangle (`multigrid::tri`): Tᵀ A T is the
+    // block sum; column k of the rest is A R_k's net force (Tᵀ A R_k) and torque (R_jᵀ A R_k).
+    let mut gram = [0.0f64; 21];
+    let mut put = |r: usize, c: usize, value: f64| {
+        if let Some(e) = gram.get_mut(multigrid::tri(r, c)) {
+            *e = value;
+        }
+    };
+    let a_tt = op.block_sum().map_err(breakdown)?;
+    for r in 0..3 {
+        for c in 0..=r {
+            put(r, c, a_tt.col(c)[r]);
+        }
+    }
+    let mut rotations = [DVec3::ZERO; 3];
+    for ((k, &axis), moment) in axes.iter().enumerate().zip(rotations.iter_mut()) {
         for (f, &p) in field.iter_mut().zip(x) {
             *f = axis.cross(p - centre);
         }
         op.mul(field, image).map_err(breakdown)?;
-        // Tᵀ A R_k (the image's net force) and R_jᵀ A R_k (its torque about c along e_j)
         let force: DVec3 = image.iter().map(|q| q.as_dvec3()).sum();
-        let moment: DVec3 = x
+        for (j, f) in force.to_array().into_iter().enumerate() {
+            put(3 + k, j, f);
+        }
+        *moment = x
             .iter()
             .zip(image.iter())
             .map(|(&p, &q)| (p - centre).as_dvec3().cross(q.as_dvec3()))
             .sum();
-        for (j, (f, m)) in force
-            .to_array()
-            .into_iter()
-            .zip(moment.to_array())
-            .enumerate()
-        {
-            set(&mut gram, j, 3 + k, f);
-            set(&mut gram, 3 + k, j, f);
-            set(&mut gram, 3 + j, 3 + k, m);
+    }
+    // the rotation block is symmetric up to round-off: its symmetric part
+    let [r0, r1, r2] = rotations;
+    let rot = glam::DMat3::from_cols(r0, r1, r2);
+    for j in 0..3 {
+        for k in 0..=j {
+            put(3 + j, 3 + k, 0.5 * (rot.col(k)[j] + rot.col(j)[k]));
         }
     }
-    // the rotation block is symmetric up to round-off: use its symmetric part
-    for j in 3..6 {
-        for k in (j + 1)..6 {
-            let mean = 0.5 * (get(&gram, j, k) + get(&gram, k, j));
-            set(&mut gram, j, k, mean);
-            set(&mut gram, k, j, mean);
-        }
-    }
-    let Some(s) = solve_spd6(gram, g) else {
+    // a rotation that is no motion (all vertices on its axis) is a decoupled direction of the
+    // factor, and gets no correction
+    let mut s = g;
+    if multigrid::factor_packed(&mut gram, 6)
+        .and_then(|()| multigrid::solve_packed(&gram, &mut s))
+        .is_none()
+    {
         return Ok(());
-    };
+    }
     let descent: f64 = s.iter().zip(&g).map(|(a, b)| a * b).sum();
     if !(descent > 0.0 && s.iter().all(|v| v.is_finite())) {
         return Ok(());
@@ -356,70 +362,6 @@ fn correct_rigid(
         *d += t + omega.cross(p - centre);
     }
     Ok(())
-}
-
-fn get(m: &[[f64; 6]; 6], j: usize, k: usize) -> f64 {
-    m.get(j).and_then(|r| r.get(k)).copied().unwrap_or(0.0)
-}
-
-fn set(m: &mut [[f64; 6]; 6], j: usize, k: usize, value: f64) {
-    if let Some(e) = m.get_mut(j).and_then(|r| r.get_mut(k)) {
-        *e = value;
-    }
-}
-
-/// `G s = g` for a symmetric positive semidefinite 6×6 `G` by Cholesky, with a lift of 1e-9 of
-/// its mean diagonal (a direction it does not see gets no correction); `None` if it is not
-/// positive even so.
-fn solve_spd6(mut m: [[f64; 6]; 6], g: [f64; 6]) -> Option<[f64; 6]> {
-    let lift = 1e-9 * (0..6).map(|i| get(&m, i, i)).sum::<f64>() / 6.0;
-    if !(lift > 0.0 && lift.is_finite()) {
-        return None;
-    }
-    for i in 0..6 {
-        let lifted = get(&m, i, i) + lift;
-        set(&mut m, i, i, lifted);
-    }
-    // lower factor L in place: m = L Lᵀ
-    for j in 0..6 {
-        let mut d = get(&m, j, j);
-        for k in 0..j {
-            d -= get(&m, j, k) * get(&m, j, k);
-        }
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let d = libm::sqrt(d);
-        set(&mut m, j, j, d);
-        for i in (j + 1)..6 {
-            let mut v = get(&m, i, j);
-            for k in 0..j {
-                v -= get(&m, i, k) * get(&m, j, k);
-            }
-            set(&mut m, i, j, v / d);
-        }
-    }
-    let mut y = [0.0f64; 6];
-    for i in 0..6 {
-        let mut v = g.get(i).copied().unwrap_or(0.0);
-        for k in 0..i {
-            v -= get(&m, i, k) * y.get(k).copied().unwrap_or(0.0);
-        }
-        if let Some(e) = y.get_mut(i) {
-            *e = v / get(&m, i, i);
-        }
-    }
-    let mut s = [0.0f64; 6];
-    for i in (0..6).rev() {
-        let mut v = y.get(i).copied().unwrap_or(0.0);
-        for k in (i + 1)..6 {
-            v -= get(&m, k, i) * s.get(k).copied().unwrap_or(0.0);
-        }
-        if let Some(e) = s.get_mut(i) {
-            *e = v / get(&m, i, i);
-        }
-    }
-    Some(s)
 }
 
 /// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
