@@ -856,8 +856,8 @@ fn at_rest_and_nudged(mats: &[Material]) {
 
 /// A free cloth at rest (no gravity, no pins, nothing touching) stays exactly where it is and
 /// costs no CG iteration: its right-hand side is round-off, which neither the CG (its
-/// absolute floor) nor the translation correction after it (skipped where the residual is
-/// below that floor) turns into motion. Corrected anyway, the round-off's net force moved
+/// absolute floor) nor the rigid correction after it (skipped where the residual is below
+/// that floor) turns into motion. Corrected anyway, the round-off's net force moved
 /// it (here from the 11th step; on weft-bench's 21×21 sheet 0.35 CG iterations a step and
 /// strains of 1e-7).
 #[test]

@@ -222,8 +222,8 @@ pub(crate) fn solve(
         op.mul(dv, live_mut(a.w_q, n)?)
             .map_err(|_| StepError::SolverBreakdown)?;
     }
-    // A solve whose whole residual is below the floor has no translation error worth a
-    // product (a cloth at rest costs what it did).
+    // A solve whose whole residual is below the floor has no rigid-motion error worth the
+    // products (a cloth at rest costs what it did).
     if !constrained && !settled {
         let scratch = [live_mut(a.w_r, n)?, live_mut(a.w_c, n)?];
         let kept = stats.product_kept;
@@ -343,8 +343,19 @@ fn correct_rigid(
             put(3 + j, 3 + k, 0.5 * (rot.col(k)[j] + rot.col(j)[k]));
         }
     }
-    // a rotation that is no motion (all vertices on its axis) is a decoupled direction of the
-    // factor, and gets no correction
+    // Lifted by 1e-9 of its mean diagonal, as the correction's own factorization was before it
+    // shared the multigrid's (the same bits); a rotation that is no motion (all vertices on its
+    // axis) stays below the factor's pivot, a decoupled direction that gets no correction.
+    let lift = 1e-9
+        * (0..6)
+            .map(|i| gram.get(multigrid::tri(i, i)).copied().unwrap_or(0.0))
+            .sum::<f64>()
+        / 6.0;
+    for i in 0..6 {
+        if let Some(d) = gram.get_mut(multigrid::tri(i, i)) {
+            *d += lift;
+        }
+    }
     let mut s = g;
     if multigrid::factor_packed(&mut gram, 6)
         .and_then(|()| multigrid::solve_packed(&gram, &mut s))
