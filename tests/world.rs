@@ -1417,7 +1417,8 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 /// steps. This is one landing (the jitter's seed 7): over seeds 1–40 of the same drop, 11
 /// piles still crept at 0.9–5 mm/s after 600 steps (17–30 CG iterations a step), the friction
 /// creep described in the README (Limits, "A cloth landing in a pile"), which no tolerance
-/// removes (9 of 40 at 1e-2).
+/// removes (8 to 17 of 40 at tolerances 1e-3 … 1e-2: `cargo run --release --example
+/// rest_sweep -- pile`; README, "The default, re-examined").
 #[test]
 fn a_cloth_fallen_into_a_pile_comes_to_rest() {
     let n = 21;
