@@ -22,7 +22,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{anisotropic, hanging_sheet, memory, top_speed, uniform, world, Sheet};
+use common::{anisotropic, memory, pile_sheet, run_pile, top_speed, world, Sheet};
 use glam::Vec3A;
 use weft::collide::{Collider, Shape};
 use weft::world::Settings;
@@ -124,37 +124,13 @@ fn drape(n: usize, tolerance: f32, angle: f32) -> (u32, f32, f64) {
 
 /// `(at rest by the pile test's bounds, CG it/step over the whole drop)`.
 fn pile(tolerance: f32, seed: u64) -> (bool, f64) {
-    let n = 21;
-    let mut sheet = hanging_sheet(n, 1.0);
-    let mut jitter = uniform(seed);
-    for p in &mut sheet.positions {
-        *p = [p[0], 2e-3 * jitter(), p[2] + 0.8];
-    }
+    let sheet = pile_sheet(seed);
     let mats = [anisotropic()];
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings(tolerance));
-    let corner = sheet.index(0, n - 1);
-    w.set_pin(corner, sheet.positions[corner as usize]).unwrap();
-    let floor = Shape::Plane {
-        normal: Vec3A::Z,
-        offset: 0.0,
-    };
-    w.add_collider(Collider::new(floor, 0.3, 0.005)).unwrap();
-    let (steps, last) = (600u32, 90u32);
-    let (mut total, mut tail, mut fastest) = (0u64, 0u32, 0.0f32);
-    for step in 0..steps {
-        if step == 90 {
-            w.remove_pin(corner).unwrap();
-        }
-        let s = w.step().unwrap();
-        total += u64::from(s.iterations);
-        if step >= steps - last {
-            tail += s.iterations;
-            fastest = fastest.max(top_speed(&w));
-        }
-    }
-    let at_rest = f64::from(tail) / f64::from(last) < 5.0 && fastest < 4e-5;
-    (at_rest, total as f64 / f64::from(steps))
+    let run = run_pile(&mut w, &sheet);
+    let at_rest = f64::from(run.tail_iterations) / 90.0 < 5.0 && run.fastest < 4e-5;
+    (at_rest, run.iterations as f64 / 600.0)
 }
 
 fn median(v: &[u32]) -> f64 {
