@@ -6,11 +6,11 @@
 //! cargo run --release --example rest_sweep -- pile [TOLERANCES] [SEEDS]
 //! ```
 //!
-//! * `drape`: the sheet of `tests/world.rs`' `a_drape_resting_on_a_sphere_is_not_redone_at_every_step`
-//!   (`N × N` vertices, default 41), turned to `ORIENTATIONS` angles 0, 0.1, 0.2, … rad about the
-//!   vertical (default 8), 1,500 steps each: the step after which its fastest vertex stays below
-//!   1 mm/s, its fastest vertex at step 600 (the test's bound: 1 cm/s) and its CG iterations per
-//!   step.
+//! * `drape`: the sheet of `tests/world.rs`'
+//!   `a_drape_resting_on_a_sphere_is_not_redone_at_every_step` (`N × N` vertices, default 41),
+//!   turned to `ORIENTATIONS` angles 0, 0.1, 0.2, … rad about the vertical (default 8), 1,500
+//!   steps each: the step after which its fastest vertex stays below 1 mm/s, its fastest vertex
+//!   at step 600 (the test's bound: 1 cm/s) and its CG iterations per step.
 //! * `pile`: the drop of `a_cloth_fallen_into_a_pile_comes_to_rest` with jitter seeds 1..=`SEEDS`
 //!   (default 40): whether it is at rest by the test's bounds over its last 90 of 600 steps
 //!   (fastest vertex below 4e-5 m/s, fewer than 5 CG iterations a step), and its CG iterations

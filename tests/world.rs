@@ -1414,11 +1414,12 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 /// that start lay below the floor: the light corner vertex (a sixth to a third of an inner
 /// vertex's mass; the floor is a mass-weighted sum) went on oscillating at 1.5e-4 m/s, and every
 /// step cost 6.4 CG iterations for ever; now 1.8e-5 m/s and 2.0 iterations over the last 90
-/// steps (7e-6 and 2.1 when the rule landed; the fall has changed since). This is one landing (the jitter's seed 7): over seeds 1–40 of the same drop, 11
-/// piles still crept at 0.9–5 mm/s after 600 steps (17–30 CG iterations a step), the friction
-/// creep described in the README (Limits, "A cloth landing in a pile"), which no tolerance
-/// removes (8 to 17 of 40 at tolerances 1e-3 … 1e-2: `cargo run --release --example
-/// rest_sweep -- pile`; README, "The default, re-examined").
+/// steps (7e-6 and 2.1 when the rule landed; the fall has changed since). This is one
+/// landing (the jitter's seed 7): over seeds 1–40 of the same drop, 11 piles still crept at
+/// 0.9–5 mm/s after 600 steps (17–30 CG iterations a step), the friction creep described in
+/// the README (Limits, "A cloth landing in a pile"), which no tolerance removes (8 to 17 of 40
+/// at tolerances 1e-3 … 1e-2: `cargo run --release --example rest_sweep -- pile`; README,
+/// "The default, re-examined").
 #[test]
 fn a_cloth_fallen_into_a_pile_comes_to_rest() {
     let sheet = pile_sheet(7);
