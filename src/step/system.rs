@@ -270,9 +270,9 @@ pub(crate) fn solve(
 /// coarsest multigrid level's (`multigrid::factor_packed`), which leaves a rotation that is no
 /// motion (all the vertices on its axis) uncorrected. [`solve`] skips it where the solve's
 /// whole residual is below its absolute floor: a cloth at rest, whose right-hand side is
-/// round-off, stays exactly at rest (as the CG's floor keeps it). Skipping every correction whose own energy was below the floor
-/// instead let the drift build up to 1.5e-5 of the scale in those 200 steps (block Jacobi at
-/// 1e-3; 4e-6 with the solve's residual as the gate).
+/// round-off, stays exactly at rest (as the CG's floor keeps it). Skipping every correction
+/// whose own energy was below the floor instead let the drift build up to 1.5e-5 of the scale
+/// in those 200 steps (block Jacobi at 1e-3; 4e-6 with the solve's residual as the gate).
 fn correct_rigid(
     op: &sparse::BlockMatrix<'_>,
     rhs: &[Vec3A],
@@ -292,16 +292,8 @@ fn correct_rigid(
     let centre = Vec3A::from(centre);
     let axes = [Vec3A::X, Vec3A::Y, Vec3A::Z];
     // g = Wᵀ (rhs − A Δv), translations first: the residual's net force and its torque about c
-    let net: DVec3 = rhs
-        .iter()
-        .zip(adv.iter())
-        .map(|(&b, &q)| (b - q).as_dvec3())
-        .sum();
-    let torque: DVec3 = x
-        .iter()
-        .zip(rhs.iter().zip(adv.iter()))
-        .map(|(&p, (&b, &q))| (p - centre).as_dvec3().cross((b - q).as_dvec3()))
-        .sum();
+    let (net, torque) =
+        force_and_torque(x, centre, rhs.iter().zip(adv.iter()).map(|(&b, &q)| b - q));
     let mut g = [0.0f64; 6];
     g[..3].copy_from_slice(&net.to_array());
     g[3..].copy_from_slice(&torque.to_array());
@@ -325,15 +317,11 @@ fn correct_rigid(
             *f = axis.cross(p - centre);
         }
         op.mul(field, image).map_err(breakdown)?;
-        let force: DVec3 = image.iter().map(|q| q.as_dvec3()).sum();
+        let force;
+        (force, *moment) = force_and_torque(x, centre, image.iter().copied());
         for (j, f) in force.to_array().into_iter().enumerate() {
             put(3 + k, j, f);
         }
-        *moment = x
-            .iter()
-            .zip(image.iter())
-            .map(|(&p, &q)| (p - centre).as_dvec3().cross(q.as_dvec3()))
-            .sum();
     }
     // the rotation block is symmetric up to round-off: its symmetric part
     let [r0, r1, r2] = rotations;
@@ -373,6 +361,18 @@ fn correct_rigid(
         *d += t + omega.cross(p - centre);
     }
     Ok(())
+}
+
+/// `(Σ f_i, Σ (x_i − c) × f_i)` in `f64`, in vertex order, in one pass: what a rigid motion
+/// about `c` sees of the per-vertex vectors `f` (its translations' and its rotations' parts).
+fn force_and_torque(x: &[Vec3A], centre: Vec3A, f: impl Iterator<Item = Vec3A>) -> (DVec3, DVec3) {
+    let (mut force, mut torque) = (DVec3::ZERO, DVec3::ZERO);
+    for (&p, fi) in x.iter().zip(f) {
+        let fi = fi.as_dvec3();
+        force += fi;
+        torque += (p - centre).as_dvec3().cross(fi);
+    }
+    (force, torque)
 }
 
 /// `Vec3A` entries of the force array that hold the coarsest level's `f64` factor while the
