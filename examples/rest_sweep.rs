@@ -22,9 +22,9 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{anisotropic, memory, pile_sheet, run_pile, top_speed, world, Sheet};
-use glam::Vec3A;
-use weft::collide::{Collider, Shape};
+use common::{
+    anisotropic, drape_sheet, drape_sphere, memory, pile_sheet, run_pile, top_speed, world,
+};
 use weft::world::Settings;
 
 fn main() {
@@ -94,20 +94,11 @@ fn settings(tolerance: f32) -> Settings {
 
 /// `(step after which the fastest vertex stays below 1 mm/s, fastest at step 600, CG it/step)`.
 fn drape(n: usize, tolerance: f32, angle: f32) -> (u32, f32, f64) {
-    let mut sheet = Sheet::grid(n, n, 1.0, 1.0);
-    let (c, s) = (angle.cos(), angle.sin());
-    sheet.transform(|p| {
-        let (x, y) = (p[0] - 0.5, p[1] - 0.5);
-        [c * x - s * y, s * x + c * y, 0.45]
-    });
+    let sheet = drape_sheet(n, angle);
     let mats = [anisotropic()];
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings(tolerance));
-    let sphere = Shape::Sphere {
-        center: Vec3A::ZERO,
-        radius: 0.3,
-    };
-    w.add_collider(Collider::new(sphere, 0.5, 0.005)).unwrap();
+    w.add_collider(drape_sphere()).unwrap();
     let (steps, mut moving, mut at600, mut iterations) = (1500u32, 0u32, 0.0f32, 0u64);
     for step in 1..=steps {
         iterations += u64::from(w.step().unwrap().iterations);
@@ -129,8 +120,8 @@ fn pile(tolerance: f32, seed: u64) -> (bool, f64) {
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings(tolerance));
     let run = run_pile(&mut w, &sheet);
-    let at_rest = f64::from(run.tail_iterations) / 90.0 < 5.0 && run.fastest < 4e-5;
-    (at_rest, run.iterations as f64 / 600.0)
+    let at_rest = run.tail_per_step() < 5.0 && run.fastest < 4e-5;
+    (at_rest, run.per_step())
 }
 
 fn median(v: &[u32]) -> f64 {

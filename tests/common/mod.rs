@@ -176,13 +176,29 @@ pub fn pile_sheet(seed: u64) -> Sheet {
     sheet
 }
 
-/// What the pile did: CG iterations and the fastest vertex over its last 90 of 600 steps, the
-/// highest vertex then (m), and CG iterations over all 600.
+/// The steps of a pile's drop, and the last ones that [`PileRun`] watches.
+pub const PILE_STEPS: u32 = 600;
+pub const PILE_TAIL: u32 = 90;
+
+/// What the pile did: CG iterations and the fastest vertex over its last [`PILE_TAIL`] of
+/// [`PILE_STEPS`] steps, the highest vertex then (m), and CG iterations over all of them.
 pub struct PileRun {
     pub tail_iterations: u32,
     pub fastest: f32,
     pub top: f32,
     pub iterations: u64,
+}
+
+impl PileRun {
+    /// CG iterations per step over the last [`PILE_TAIL`] steps.
+    pub fn tail_per_step(&self) -> f64 {
+        f64::from(self.tail_iterations) / f64::from(PILE_TAIL)
+    }
+
+    /// CG iterations per step over the whole drop.
+    pub fn per_step(&self) -> f64 {
+        self.iterations as f64 / f64::from(PILE_STEPS)
+    }
 }
 
 /// Drops `pile_sheet`'s cloth in `w`: held by one top corner for 90 steps, then let go onto a
@@ -195,7 +211,7 @@ pub fn run_pile(w: &mut World<'_>, sheet: &Sheet) -> PileRun {
         offset: 0.0,
     };
     w.add_collider(Collider::new(floor, 0.3, 0.005)).unwrap();
-    let (steps, last) = (600, 90);
+    let (steps, last) = (PILE_STEPS, PILE_TAIL);
     let mut run = PileRun {
         tail_iterations: 0,
         fastest: 0.0,
@@ -215,4 +231,25 @@ pub fn run_pile(w: &mut World<'_>, sheet: &Sheet) -> PileRun {
         }
     }
     run
+}
+
+/// The sheet of `a_drape_resting_on_a_sphere_is_not_redone_at_every_step`: `n × n` vertices
+/// over 1 m, centred over the origin 0.45 m up, turned by `angle` (rad) about the vertical.
+pub fn drape_sheet(n: usize, angle: f32) -> Sheet {
+    let mut sheet = Sheet::grid(n, n, 1.0, 1.0);
+    let (c, s) = (angle.cos(), angle.sin());
+    sheet.transform(|p| {
+        let (x, y) = (p[0] - 0.5, p[1] - 0.5);
+        [c * x - s * y, s * x + c * y, 0.45]
+    });
+    sheet
+}
+
+/// The sphere that sheet drapes over: radius 0.3 m at the origin, friction 0.5.
+pub fn drape_sphere() -> Collider {
+    let sphere = Shape::Sphere {
+        center: Vec3A::ZERO,
+        radius: 0.3,
+    };
+    Collider::new(sphere, 0.5, 0.005)
 }
