@@ -103,7 +103,8 @@
 //! multiplies by `A` itself and the coarse levels are the Galerkin operators of `A`: only the
 //! preconditioner changes, never the system solved. Where a weight exceeds 5 % of its diagonal
 //! (`LUMP_LIMIT`: strong bending on a fine mesh), the solve smooths exactly. Measured against
-//! smoothing exactly: see the README ("Runtime step").
+//! smoothing exactly: see `docs/PERFORMANCE.md` ("Lumped hinge couplings in the fine
+//! smoother").
 //!
 //! Numerics: `f32` vectors and blocks, block inverses and the coarsest Cholesky in `f64`;
 //! every loop runs in a fixed serial order, so a cycle is bit-reproducible.
