@@ -273,7 +273,7 @@ pub(crate) fn dot64(a: Vec3A, b: Vec3A) -> f64 {
 /// [`dot64`]. The same bits either way. The test per term was a fifth of the CG's own passes
 /// at 21×21 (`perf`).
 #[inline(always)]
-pub(crate) fn sum_dot(pairs: impl Iterator<Item = (Vec3A, Vec3A)> + Clone) -> f64 {
+fn sum_dot(pairs: impl Iterator<Item = (Vec3A, Vec3A)> + Clone) -> f64 {
     let mut fast = Sum4::ZERO;
     for (a, b) in pairs.clone() {
         fast.add(f64::from(a.dot(b)));
@@ -874,8 +874,8 @@ pub(crate) mod tests {
         let bits = |v: f64| if v.is_nan() { u64::MAX } else { v.to_bits() };
         for case in 0..400 {
             let n = 1 + case % 37;
-            // Ordinary vectors, and some whose f32 products overflow (|v| ~ 1e20..1e30), which
-            // take `dot64`'s f64 path; one case in forty has a NaN.
+            // Ordinary vectors, and in every other case some of size ~1e25, whose f32 products
+            // overflow and take `dot64`'s f64 path; one case in forty has a NaN.
             let mut v = |_| {
                 let scale = match rng.below(8) {
                     0 if case % 2 == 1 => 1e25,
