@@ -120,8 +120,7 @@ fn pile(tolerance: f32, seed: u64) -> (bool, f64) {
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings(tolerance));
     let run = run_pile(&mut w, &sheet);
-    let at_rest = run.tail_per_step() < 5.0 && run.fastest < 4e-5;
-    (at_rest, run.per_step())
+    (run.at_rest(), run.per_step())
 }
 
 fn median(v: &[u32]) -> f64 {

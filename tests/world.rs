@@ -1413,28 +1413,46 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 /// warm-started from the last step's `Δv` kept, where the absolute floor stopped it, what of
 /// that start lay below the floor: the light corner vertex (a sixth to a third of an inner
 /// vertex's mass; the floor is a mass-weighted sum) went on oscillating at 1.5e-4 m/s, and every
-/// step cost 6.4 CG iterations for ever; now 1.8e-5 m/s and 2.0 iterations over the last 90
-/// steps (7e-6 and 2.1 when the rule landed; the fall has changed since). This is one
-/// landing (the jitter's seed 7): over seeds 1–40 of the same drop, 11 piles still crept at
-/// 0.9–5 mm/s after 600 steps (17–30 CG iterations a step), the friction creep described in
-/// the README (Limits, "A cloth landing in a pile"), which no tolerance removes (8 to 17 of 40
-/// at tolerances 1e-3 … 1e-2: `cargo run --release --example rest_sweep -- pile`; README,
-/// "The default, re-examined").
+/// step cost 6.4 CG iterations for ever, in every landing.
+///
+/// Whether one landing rests within the 600 steps is a lottery: some piles keep the friction
+/// creep described in the README (Limits, "A cloth landing in a pile") at 0.9–5 mm/s and 17–30
+/// CG iterations a step, and which ones changes with any change of round-off. So the test drops
+/// forty landings (jitter seeds 1–40) and asks most of them to rest: 29 of 40 when this form
+/// landed (2026-11-28), and 23–32 of 40 over the tolerances 1e-3 … 1e-2 and the frictions 0.1 …
+/// 1 measured before (`cargo run --release --example rest_sweep -- pile`; README, "The default,
+/// re-examined"). The bound, 22, leaves that spread room; a regression like the one above rests
+/// none. One landing used to be the test (seed 7), and a change of summation order elsewhere
+/// could fail it.
 #[test]
 fn a_cloth_fallen_into_a_pile_comes_to_rest() {
-    let sheet = pile_sheet(7);
     let mats = [anisotropic()];
-    let mut mem = memory(&sheet.capacity());
-    let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-    let run = run_pile(&mut w, &sheet);
-    let (top, fastest) = (run.top, run.fastest);
-    let per_step = run.tail_per_step();
-    println!(
-        "last {PILE_TAIL} steps: {per_step} CG iterations per step, {fastest} m/s, top {top} m"
+    let mut creeping = Vec::new();
+    let seeds = 1..=40u64;
+    for seed in seeds.clone() {
+        let sheet = pile_sheet(seed);
+        let mut mem = memory(&sheet.capacity());
+        let mut w = world(&mut mem, &sheet, &mats, Settings::default());
+        let run = run_pile(&mut w, &sheet);
+        let (top, fastest, per_step) = (run.top, run.fastest, run.tail_per_step());
+        println!(
+            "seed {seed}: last {PILE_TAIL} steps {per_step} CG iterations per step, \
+             {fastest} m/s, top {top} m"
+        );
+        assert!(
+            top < 0.5,
+            "seed {seed}: the cloth did not fall (top at {top} m)"
+        );
+        if !run.at_rest() {
+            creeping.push(seed);
+        }
+    }
+    let rested = seeds.count() - creeping.len();
+    println!("{rested} of 40 at rest; creeping: {creeping:?}");
+    assert!(
+        rested >= 22,
+        "{rested} of 40 piles at rest (creeping: {creeping:?})"
     );
-    assert!(top < 0.5, "the cloth did not fall (top at {top} m)");
-    assert!(per_step < 5.0, "{per_step} CG iterations per step at rest");
-    assert!(fastest < 4e-5, "a vertex still moves at {fastest} m/s");
 }
 
 /// Random ±5 m/s velocities on a resting hanging cloth: with nothing else driving it, one step
@@ -1779,27 +1797,40 @@ fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
 /// sphere at the drape's rim and drew them toward it against the membrane that held them up,
 /// which put energy in at nearly every step, and the energy balance redid those steps with two
 /// substeps (3× the cost; 304 / 5 / 535 of 600 redone at 21 / 31 / 41 per side). A contact
-/// now only pushes (`contacts::release`). When the drape stops sliding is friction's stick and
-/// slip: the same 41×41 drop turned to 8 orientations about the vertical (2026-11-28) is at
-/// rest (below 1 mm/s) after 317–805 steps, and one of them (0.3 rad) still slides at 2.4e-2
-/// m/s at step 600 (README, "The default, re-examined").
+/// now only pushes (`contacts::release`).
+///
+/// When the drape stops sliding is friction's stick and slip, a lottery at 41×41: the drop
+/// turned to 8 orientations about the vertical (2026-11-28) is at rest (below 1 mm/s) after
+/// 317–805 steps, and one of them (0.3 rad) still slides at 2.4e-2 m/s at step 600 (README,
+/// "The default, re-examined"); at 21 and 31 per side every orientation rests after 213–360
+/// steps. So the 41×41 drape is dropped in all 8 orientations and watched for 1,000 steps, and
+/// the smaller ones in one for 600: one orientation used to be the test at every size, and a
+/// change of round-off elsewhere could fail it.
 #[test]
 fn a_drape_resting_on_a_sphere_is_not_redone_at_every_step() {
-    for n in [21usize, 31, 41] {
-        let sheet = drape_sheet(n, 0.0);
+    let runs = (0..8)
+        .map(|k| (41usize, 0.1 * k as f32, 1000u32))
+        .chain([(21, 0.0, 600), (31, 0.0, 600)]);
+    for (n, angle, steps) in runs {
+        let sheet = drape_sheet(n, angle);
         let mats = [anisotropic()];
         let mut mem = memory(&sheet.capacity());
         let mut w = world(&mut mem, &sheet, &mats, Settings::default());
         w.add_collider(drape_sphere()).unwrap();
-        let redone: u32 = (0..600).map(|_| w.step().unwrap().redone.min(1)).sum();
-        let fastest = w
-            .velocities()
-            .iter()
-            .map(|v| v.length())
-            .fold(0.0f32, f32::max);
-        println!("{n}×{n}: {redone} of 600 steps redone, fastest vertex {fastest:.1e} m/s");
-        assert!(redone <= 30, "{n}×{n}: {redone} of 600 steps redone");
-        assert!(fastest < 1e-2, "{n}×{n}: still sliding at {fastest} m/s");
+        let redone: u32 = (0..steps).map(|_| w.step().unwrap().redone.min(1)).sum();
+        let fastest = top_speed(&w);
+        println!(
+            "{n}×{n}, {angle:.1} rad: {redone} of {steps} steps redone, fastest vertex \
+             {fastest:.1e} m/s"
+        );
+        assert!(
+            redone <= steps / 20,
+            "{n}×{n}, {angle:.1} rad: {redone} of {steps} redone"
+        );
+        assert!(
+            fastest < 1e-2,
+            "{n}×{n}, {angle:.1} rad: still sliding at {fastest} m/s"
+        );
     }
 }
 

@@ -199,6 +199,12 @@ impl PileRun {
     pub fn per_step(&self) -> f64 {
         self.iterations as f64 / f64::from(PILE_STEPS)
     }
+
+    /// At rest over the last [`PILE_TAIL`] steps: no vertex faster than 4e-5 m/s, and fewer than
+    /// 5 CG iterations a step (a resting pile's solves start at their answer).
+    pub fn at_rest(&self) -> bool {
+        self.fastest < 4e-5 && self.tail_per_step() < 5.0
+    }
 }
 
 /// Drops `pile_sheet`'s cloth in `w`: held by one top corner for 90 steps, then let go onto a
