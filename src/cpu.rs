@@ -25,9 +25,10 @@ macro_rules! multiversion {
             $body($($arg),*)
         }
 
-        /// The AVX2 build of the kernel above.
+        /// The AVX2 build of the kernel above (its parameters are the kernel's, however many).
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = "avx2")]
+        #[allow(clippy::too_many_arguments)]
         fn $avx2($($arg: $ty),*) -> $ret {
             $body($($arg),*)
         }

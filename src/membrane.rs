@@ -422,8 +422,40 @@ impl Element {
 /// forces carry no net force or torque and do no work round a closed loop for *any* SPD `C`;
 /// in the small-strain limit `K` is the linear FEM stiffness `A Bᵀ C B` (Eq. 10–11), so `C^H`
 /// is reproduced exactly (patch test). Returns the elastic energy (J).
+///
+/// Runs the AVX2 build of the same code where the processor has it (`crate::cpu`;
+/// bit-identical).
 #[allow(clippy::too_many_arguments)]
 pub fn assemble(
+    triangles: &[[u32; 3]],
+    elements: &[Element],
+    slots: &[[u32; 3]],
+    x: &[Vec3A],
+    strain: Strain,
+    diag: &mut [Mat3A],
+    off: &mut [Mat3A],
+    force: &mut [Vec3A],
+) -> Result<f64, AssemblyError> {
+    assemble_wide(triangles, elements, slots, x, strain, diag, off, force)
+}
+
+crate::cpu::multiversion! {
+    #[allow(clippy::too_many_arguments)]
+    fn assemble_wide, assemble_avx2 => assemble_body(
+        triangles: &[[u32; 3]],
+        elements: &[Element],
+        slots: &[[u32; 3]],
+        x: &[Vec3A],
+        strain: Strain,
+        diag: &mut [Mat3A],
+        off: &mut [Mat3A],
+        force: &mut [Vec3A],
+    ) -> Result<f64, AssemblyError>
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn assemble_body(
     triangles: &[[u32; 3]],
     elements: &[Element],
     slots: &[[u32; 3]],
@@ -973,6 +1005,81 @@ mod runtime_tests {
                     }
                     assert!(m.col(2)[r].abs() <= 1e-5 * scale && m.col(r)[2].abs() <= 1e-5 * scale);
                 }
+            }
+        }
+    }
+
+    /// The AVX2 build of the assembly (`crate::cpu`) gives the same bits as the baseline one:
+    /// forces, blocks and energy, on a fan of anisotropic triangles crumpled at random (some
+    /// stretched, some compressed: both sides of the tension clamp).
+    #[test]
+    fn the_avx2_assembly_is_bit_identical() {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2() {
+            let mut rng = Lcg(31);
+            let uv = [
+                [0.0, 0.0],
+                [0.2, 0.03],
+                [0.05, 0.17],
+                [-0.15, 0.1],
+                [-0.1, -0.12],
+            ];
+            let fan = [[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+            for c in materials(&mut rng) {
+                let patch = Patch::new(&uv, &fan, &c);
+                let x: Vec<Vec3A> = patch
+                    .rest
+                    .iter()
+                    .map(|p| {
+                        let kick = Vec3A::new(
+                            rng.range(-0.08, 0.08) as f32,
+                            rng.range(-0.08, 0.08) as f32,
+                            rng.range(-0.08, 0.08) as f32,
+                        );
+                        *p * rng.range(0.7, 1.4) as f32 + kick
+                    })
+                    .collect();
+                let run = |wide: bool| {
+                    let n = x.len();
+                    let (mut diag, mut off) = (vec![Mat3A::ZERO; n], vec![Mat3A::ZERO; patch.off]);
+                    let mut f = vec![Vec3A::ZERO; n];
+                    let args = (&patch.triangles, &patch.elements, &patch.slots, &x[..]);
+                    let e = if wide {
+                        // SAFETY: the processor supports AVX2 (checked above).
+                        unsafe {
+                            assemble_avx2(
+                                args.0,
+                                args.1,
+                                args.2,
+                                args.3,
+                                Strain::Green,
+                                &mut diag,
+                                &mut off,
+                                &mut f,
+                            )
+                        }
+                    } else {
+                        assemble_body(
+                            args.0,
+                            args.1,
+                            args.2,
+                            args.3,
+                            Strain::Green,
+                            &mut diag,
+                            &mut off,
+                            &mut f,
+                        )
+                    }
+                    .unwrap();
+                    let bits = f
+                        .iter()
+                        .flat_map(|v| v.to_array())
+                        .chain(diag.iter().chain(&off).flat_map(|m| m.to_cols_array()))
+                        .map(f32::to_bits)
+                        .collect::<Vec<_>>();
+                    (e.to_bits(), bits)
+                };
+                assert_eq!(run(false), run(true));
             }
         }
     }
