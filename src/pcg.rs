@@ -155,6 +155,13 @@ pub struct Settings {
     /// passes that solve's [`Stats::reference`], and spends no preconditioner application on
     /// it. `≤ 0` or NaN (the default): computed from `b`, as the module docs say.
     pub reference: f64,
+    /// [`Work::q`] holds `A x` of the starting `x` on entry (unfiltered): the start's residual
+    /// is formed from it instead of a product. What a solve that continues an earlier one
+    /// passes when `x` did not change in between (the earlier solve's [`Stats::product_kept`];
+    /// the World's solve after contacts were only let go, which changes the filter alone).
+    /// The caller vouches for it: a `q` that is not `A x` gives a wrong start. `false` (the
+    /// default): the product is made here.
+    pub product_given: bool,
 }
 
 impl Default for Settings {
@@ -166,6 +173,7 @@ impl Default for Settings {
             max_iterations: 200,
             floor: 0.0,
             reference: 0.0,
+            product_given: false,
         }
     }
 }
@@ -468,6 +476,14 @@ fn run<F: Filter>(
     let floor = f64::from(settings.floor);
     let floor = if floor > 0.0 { floor } else { 0.0 };
 
+    // r = S (b − A x) from the product the caller gave, before δ₀ takes q as scratch.
+    let product_given = settings.product_given;
+    if product_given {
+        for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
+            *ri = f.at(i, bi - qi);
+        }
+    }
+
     // δ₀ = (S b)ᵀ P (S b): §5.3's scale for "small", filtered so that forces in constrained
     // directions (which the constraints absorb) do not loosen the test. q = S b, s = P q.
     // A solve that continues an earlier one brings that one's.
@@ -483,8 +499,13 @@ fn run<F: Filter>(
     };
 
     // r = S (b − A x): the warm start already carries the prescribed components, so this is
-    // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`.
-    let mut delta = restart(a, precond, f, b, x, r, c, q, s);
+    // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`. (`restart` forms `r` the same way from its
+    // own product: with the caller's, the same bits.)
+    let mut delta = if product_given {
+        start(precond, f, r, c, q, s)
+    } else {
+        restart(a, precond, f, b, x, r, c, q, s)
+    };
     // Where the absolute floor decides (`tol² δ₀ ≤ floor`: the right-hand side is so small
     // that the relative test would ask for less than the floor), a warm start that is worse
     // than its prescribed part alone in CG's objective `φ` goes on from that part. Kept, what
@@ -1178,6 +1199,66 @@ pub(crate) mod tests {
             let (st, c, _) = run(bad, &mut w);
             assert_eq!((st, c), (first, calls));
         }
+    }
+
+    /// A solve given `A x` of its start in `q` (`Settings::product_given`, what the World's
+    /// solve after contacts were only let go passes on) makes one product less and otherwise
+    /// the same solve, bit for bit: from a warm start, under a filter with a contact and a pin,
+    /// with or without a reference given too. A `q` that is not `A x` changes the solve, so the
+    /// product given is the one used.
+    #[test]
+    fn a_given_product_saves_one_product_and_nothing_else() {
+        struct CountedOp<'a>(BlockMatrix<'a>, core::cell::Cell<u32>);
+        impl Operator for CountedOp<'_> {
+            fn apply(&self, x: &[Vec3A], y: &mut [Vec3A]) {
+                self.1.set(self.1.get() + 1);
+                self.0.apply(x, y);
+            }
+        }
+        let mut rng = Lcg(29);
+        let n = 50;
+        let sys = System::random(&mut rng, n, 20.0);
+        let b: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let start: Vec<Vec3A> = (0..n).map(|_| 0.3 * rng.vec()).collect();
+        let mut filter = vec![Mat3A::IDENTITY; n];
+        let normal = Vec3A::new(0.6, 0.0, 0.8);
+        filter[7] = Mat3A::IDENTITY
+            - Mat3A::from_cols(normal * normal.x, normal * normal.y, normal * normal.z);
+        filter[30] = Mat3A::ZERO;
+        let blocks = sys.precond();
+        let mut w = Scratch::new(n);
+        let mut run = |reference: f64, given: Option<&[Vec3A]>| {
+            let op = CountedOp(sys.matrix(), core::cell::Cell::new(0));
+            let mut x = start.clone();
+            let work = w.work();
+            if let Some(q) = given {
+                work.q.copy_from_slice(q);
+            }
+            let set = Settings {
+                reference,
+                product_given: given.is_some(),
+                ..settings(1e-5, 500)
+            };
+            let mut p = BlockJacobi(&blocks);
+            let st = solve_with(&op, &mut p, Some(&filter), &b, &mut x, &set, work).unwrap();
+            (st, op.1.get(), x)
+        };
+        let mut product = vec![Vec3A::ZERO; n];
+        sys.matrix().apply(&start, &mut product);
+        let (first, products, x) = run(0.0, None);
+        assert!(first.converged && first.iterations > 3, "{first:?}");
+        let (again, fewer, y) = run(0.0, Some(&product));
+        assert_eq!(fewer + 1, products);
+        assert_eq!((again, y), (first, x.clone()));
+        // with the reference given too
+        let (with_ref, _, y) = run(first.reference, None);
+        let (both, fewer, z) = run(first.reference, Some(&product));
+        assert_eq!((both, z), (with_ref, y));
+        assert!(fewer < products);
+        // a product that is not the start's: another solve
+        let wrong: Vec<Vec3A> = product.iter().map(|&q| 1.5 * q).collect();
+        let (_, _, z) = run(0.0, Some(&wrong));
+        assert_ne!(z, x);
     }
 
     #[test]

@@ -856,7 +856,9 @@ pub(crate) fn constrain(
 /// is let go, and the caller solves again from the current `Δv` (`a.w_q` must hold `A Δv`). A
 /// vertex no contact holds any more is free, and from the next substep on it is held only
 /// where its own motion reaches a surface ([`LET_GO`]). Returns how many vertices changed
-/// (listed in `a.w_s`, in ascending order: [`engage`] searches it).
+/// (listed in `a.w_s`, in ascending order: [`engage`] searches it), and whether any of their
+/// `Δv` changed (a vertex still held by its other contacts is prescribed anew; one let go
+/// entirely keeps its `Δv`, and then `a.w_q` is still `A Δv`).
 ///
 /// Why: a held vertex moves along the normal exactly as its contact prescribes: the surface's
 /// velocity, or toward the surface within the slop. Where the membrane would lift it faster,
@@ -876,9 +878,9 @@ pub(crate) fn release(
     c: &Counts,
     st: &Settings,
     sub: Substep,
-) -> Result<u32, StepError> {
+) -> Result<(u32, bool), StepError> {
     if !collide_on(c, st) {
-        return Ok(0);
+        return Ok((0, false));
     }
     lend(a, |a, lent| release_pulling(a, c, st, sub, lent))
 }
@@ -1020,13 +1022,13 @@ fn release_pulling(
     st: &Settings,
     sub: Substep,
     lent: &mut Lent<'_>,
-) -> Result<u32, StepError> {
+) -> Result<(u32, bool), StepError> {
     let n = c.n;
     let pins = pins_on(c, st);
     let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     // the full scene (its edge and face tests) only where a vertex has several contacts
     let mut several = None;
-    let mut released = 0;
+    let (mut released, mut moved) = (0, false);
     let list: &mut [u32] = bytemuck::cast_slice_mut(live_mut(lent.list, n)?);
     let vertices = live_mut(lent.contact, n)?
         .iter_mut()
@@ -1081,7 +1083,9 @@ fn release_pulling(
                     None if flags == 0 => mesh::NONE,
                     None => NO_COLLIDER | flags,
                 };
+                let before = dv.to_array().map(f32::to_bits);
                 kept.prescribe(*contact, vi, filter, dv);
+                moved |= dv.to_array().map(f32::to_bits) != before;
             }
             None => {
                 *contact = NO_COLLIDER | LET_GO;
@@ -1093,7 +1097,7 @@ fn release_pulling(
             .ok_or(StepError::SolverBreakdown)? = i as u32;
         released += 1;
     }
-    Ok(released)
+    Ok((released, moved))
 }
 
 /// The work (J) moving pins and colliders did on the cloth during the solve: the constraint

@@ -120,10 +120,10 @@ pub(crate) fn substep(
     // Likewise a free vertex the solve itself drove a little way into a collider is held, and
     // the solve goes on with it (`contacts::engage`, in the same rounds).
     for _ in 0..RELEASE_ROUNDS {
-        let released = if constrained {
+        let (released, moved) = if constrained {
             contacts::release(a, c, st, sub)?
         } else {
-            0
+            (0, false)
         };
         let engaged = contacts::engage(a, c, st, sub, released)?;
         if released + engaged == 0 {
@@ -132,10 +132,13 @@ pub(crate) fn substep(
         // An unconstrained solve's operators are those of the identity filter, which is what
         // `constrain` left at every vertex not listed.
         constrained |= engaged > 0;
+        // Contacts only let go change the filter alone: `A Δv` (in `w_q`, which every
+        // constrained solve leaves) is still the product of the start.
         let resume = system::Resume {
             reference: solve.reference,
             changed: (released + engaged) as usize,
             operators_kept,
+            product_kept: !moved && engaged == 0,
         };
         let more = system::solve(a, c, st, sub.h, constrained, Some(resume))?;
         operators_kept = more.operators_kept;

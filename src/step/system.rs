@@ -83,6 +83,10 @@ pub(crate) struct Resume {
     /// The earlier solve left its multilevel operators in the lent pools (it did not fall
     /// back to block Jacobi), so only what the listed vertices touch is set up again.
     pub operators_kept: bool,
+    /// `a.w_q` still holds `A Δv` of the current `Δv` (the earlier solve left it, and only the
+    /// filter changed since): the solve's start needs no product
+    /// ([`pcg::Settings::product_given`]).
+    pub product_kept: bool,
 }
 
 /// What [`solve`] did.
@@ -113,6 +117,7 @@ pub(crate) fn solve(
         max_iterations: st.max_iterations,
         floor: (c.total_mass * FLOOR_VELOCITY * FLOOR_VELOCITY) as f32,
         reference,
+        product_given: resume.is_some_and(|r| r.product_kept),
     };
     #[cfg(feature = "research")]
     if super::forces::per_node_warping(st) {
@@ -202,9 +207,11 @@ pub(crate) fn solve(
                 p: live_mut(a.w_p, n)?,
             };
             // Its reference is its own (another preconditioner, another norm), and so is
-            // the next solve's.
+            // the next solve's. `A Δv` is still in `w_q` unless a multilevel solve ran and
+            // broke down (its scratch).
             let own = pcg::Settings {
                 reference: 0.0,
+                product_given: settings.product_given && c.solver != Solver::Multigrid,
                 ..settings
             };
             let stats = pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &own, work)
