@@ -1900,6 +1900,13 @@ fn cloth_lying_on_the_floor_peels_off_when_a_corner_is_lifted() {
 /// rest with one substep as with two, in the same place. Letting go of a pulling contact only
 /// at the next substep made such a cloth churn: hundreds of vertices per step held, let go,
 /// fallen in and projected out, still moving at 0.29 m/s after 1 s (129×129 vertices).
+///
+/// "The same place" is to within where friction lets each drape stop, which round-off decides:
+/// over 16 runs whose solver tolerance was scaled by 0.99 … 1.01 (2026-11-28, a scratch build;
+/// the unscaled one among them) the two rest states were 0.15–3.4 mm apart on average (median
+/// 1.8 mm), and the one-substep drape's fastest vertex moved at 0.5–8.3 mm/s. The bound was 2 %
+/// of the cloth's size (3.2 mm), inside that spread: one run in 16 failed it. It is 5 % (8 mm)
+/// now, beyond the spread; the churn it guards against is the speed bound's to catch.
 #[test]
 fn a_fine_drape_rests_with_one_substep_as_with_two() {
     let (n, size) = (129usize, 0.16f32);
@@ -1956,7 +1963,7 @@ fn a_fine_drape_rests_with_one_substep_as_with_two() {
         fastest_one < 0.02,
         "one substep: still moving at {fastest_one} m/s"
     );
-    assert!(apart < 0.02 * size, "{apart} m apart on a {size} m cloth");
+    assert!(apart < 0.05 * size, "{apart} m apart on a {size} m cloth");
 }
 
 /// Coulomb friction on an incline steeper than the friction angle: the cloth slides down with
