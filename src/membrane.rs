@@ -405,43 +405,30 @@ impl Element {
     }
 }
 
-/// The membrane of the coarse cloth (§5.1–5.2): for every triangle the energy
-/// `Ψ = ½ A eᵀ C e` of its strain `e` (Green by default, see [`Strain`]), its exact gradient
-/// `f_a = −A Σ_i σ_i ∂e_i/∂x_a` (σ = C e) added to `force`, and its Hessian
-///
-/// ```text
-///     K_ab = A (∂e/∂x_a)ᵀ C (∂e/∂x_b)  +  A (∇N_aᵀ Σ⁺ ∇N_b) I₃
-/// ```
-///
-/// added to the 3×3 blocks (`diag`, `off` at the triangle's `slots`, which hold the block index
-/// of its pairs (0,1), (0,2), (1,2), with [`TRANSPOSED`] set when the pair is stored as (j, i)).
-/// The first term is the material stiffness (PSD for SPD `C`); the second the geometric
-/// (initial-stress) stiffness with the stress tensor `Σ` clamped to its tensile part `Σ⁺`, so the
-/// Hessian is exact for a membrane in tension and its SPD approximation under compression
-/// (where a membrane buckles rather than resists). The energy depends on `FᵀF` only, so the
-/// forces carry no net force or torque and do no work round a closed loop for *any* SPD `C`;
-/// in the small-strain limit `K` is the linear FEM stiffness `A Bᵀ C B` (Eq. 10–11), so `C^H`
-/// is reproduced exactly (patch test). Returns the elastic energy (J).
-///
-/// Runs the AVX2 build of the same code where the processor has it (`crate::cpu`;
-/// bit-identical).
-#[allow(clippy::too_many_arguments)]
-pub fn assemble(
-    triangles: &[[u32; 3]],
-    elements: &[Element],
-    slots: &[[u32; 3]],
-    x: &[Vec3A],
-    strain: Strain,
-    diag: &mut [Mat3A],
-    off: &mut [Mat3A],
-    force: &mut [Vec3A],
-) -> Result<f64, AssemblyError> {
-    assemble_wide(triangles, elements, slots, x, strain, diag, off, force)
-}
-
 crate::cpu::multiversion! {
+    /// The membrane of the coarse cloth (§5.1–5.2): for every triangle the energy
+    /// `Ψ = ½ A eᵀ C e` of its strain `e` (Green by default, see [`Strain`]), its exact
+    /// gradient `f_a = −A Σ_i σ_i ∂e_i/∂x_a` (σ = C e) added to `force`, and its Hessian
+    ///
+    /// ```text
+    ///     K_ab = A (∂e/∂x_a)ᵀ C (∂e/∂x_b)  +  A (∇N_aᵀ Σ⁺ ∇N_b) I₃
+    /// ```
+    ///
+    /// added to the 3×3 blocks (`diag`, `off` at the triangle's `slots`, which hold the block
+    /// index of its pairs (0,1), (0,2), (1,2), with [`TRANSPOSED`] set when the pair is stored
+    /// as (j, i)). The first term is the material stiffness (PSD for SPD `C`); the second the
+    /// geometric (initial-stress) stiffness with the stress tensor `Σ` clamped to its tensile
+    /// part `Σ⁺`, so the Hessian is exact for a membrane in tension and its SPD approximation
+    /// under compression (where a membrane buckles rather than resists). The energy depends on
+    /// `FᵀF` only, so the forces carry no net force or torque and do no work round a closed
+    /// loop for *any* SPD `C`; in the small-strain limit `K` is the linear FEM stiffness
+    /// `A Bᵀ C B` (Eq. 10–11), so `C^H` is reproduced exactly (patch test). Returns the elastic
+    /// energy (J).
+    ///
+    /// Runs the AVX2 build of the same code where the processor has it (`crate::cpu`;
+    /// bit-identical).
     #[allow(clippy::too_many_arguments)]
-    fn assemble_wide, assemble_avx2 => assemble_body(
+    pub fn assemble, assemble_avx2 => assemble_body(
         triangles: &[[u32; 3]],
         elements: &[Element],
         slots: &[[u32; 3]],

@@ -503,13 +503,7 @@ fn differences_body(
         return Err(SparseError::LengthMismatch);
     };
     for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
-        let &[a, b] = w else {
-            return Err(SparseError::InvalidPattern);
-        };
-        let range = a as usize..b as usize;
-        let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
-            return Err(SparseError::InvalidPattern);
-        };
+        let (rc, ro) = row_of(w, cols, off)?;
         let mut acc = *y.get(i).ok_or(SparseError::InvalidPattern)?;
         for (&j, &s) in rc.iter().zip(ro) {
             let j = j as usize;
@@ -525,6 +519,24 @@ fn differences_body(
         }
     }
     Ok(())
+}
+
+/// The columns and values of the row whose window of row starts is `w` (`[start, end]`); a
+/// window out of order or beyond `cols` / `vals` is [`SparseError::InvalidPattern`].
+#[inline(always)]
+fn row_of<'c, T>(
+    w: &[u32],
+    cols: &'c [u32],
+    vals: &'c [T],
+) -> Result<(&'c [u32], &'c [T]), SparseError> {
+    let &[a, b] = w else {
+        return Err(SparseError::InvalidPattern);
+    };
+    let range = a as usize..b as usize;
+    match (cols.get(range.clone()), vals.get(range)) {
+        (Some(rc), Some(ro)) => Ok((rc, ro)),
+        _ => Err(SparseError::InvalidPattern),
+    }
 }
 
 /// Checks the lengths shared by [`mul`] and [`mul_scalar_add`] and returns `nnz`.
@@ -707,13 +719,7 @@ fn scalar_mul_add(
 
     // One pass suffices since y is only accumulated into.
     for (i, (w, &xi)) in p.row_start.windows(2).zip(x).enumerate() {
-        let &[a, b] = w else {
-            return Err(SparseError::InvalidPattern);
-        };
-        let range = a as usize..b as usize;
-        let (Some(rc), Some(ro)) = (cols.get(range.clone()), off.get(range)) else {
-            return Err(SparseError::InvalidPattern);
-        };
+        let (rc, ro) = row_of(w, cols, off)?;
         let own = diag.and_then(|d| d.get(i)).map_or(Vec3A::ZERO, |&d| d * xi);
         let acc = scalar_row(own, rc, ro, scale * xi, x, y)?;
         if let Some(yi) = y.get_mut(i) {
@@ -1300,6 +1306,26 @@ pub(crate) mod tests {
         }
     }
 
+    /// A value of either sign spread over 40 binades around 1 (where a contracted `a·b + c` or
+    /// another order of sums would show in the bits).
+    fn spread(rng: &mut Lcg) -> f32 {
+        (rng.uniform() - 0.5) * 2f32.powi(rng.below(40) as i32 - 20)
+    }
+
+    /// `n` vectors of [`spread`] components.
+    fn spread_vecs(rng: &mut Lcg, n: usize) -> Vec<Vec3A> {
+        (0..n)
+            .map(|_| Vec3A::new(spread(rng), spread(rng), spread(rng)))
+            .collect()
+    }
+
+    fn same_bits(a: &[Vec3A], b: &[Vec3A]) -> bool {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+    }
+
     /// The AVX2 builds of the products (`crate::cpu`) give the same bits as the baseline ones,
     /// on values spread over many binades (a contracted `a·b + c` would show).
     #[test]
@@ -1309,8 +1335,6 @@ pub(crate) mod tests {
             let mut rng = Lcg(21);
             for n in [1usize, 7, 60] {
                 let (op, diag, off) = random_matrix(&mut rng, n);
-                let spread =
-                    |rng: &mut Lcg| (rng.uniform() - 0.5) * 2f32.powi(rng.below(40) as i32 - 20);
                 let pairs = random_pairs(&mut rng, n, 2 * n);
                 let sop = OwnedPattern::build(n, &pairs);
                 let soff: Vec<f32> = (0..sop.cols.len()).map(|_| spread(&mut rng)).collect();
@@ -1319,35 +1343,24 @@ pub(crate) mod tests {
                     off: &soff,
                     scale: 0.37,
                 };
-                let x: Vec<Vec3A> = (0..n)
-                    .map(|_| Vec3A::new(spread(&mut rng), spread(&mut rng), spread(&mut rng)))
-                    .collect();
+                let x = spread_vecs(&mut rng, n);
                 let p = op.pattern();
                 let (mut y, mut wide) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
                 mul_with_scalars_body(&diag, &p, &off, &scalars, &x, &mut y).unwrap();
                 // SAFETY: the processor supports AVX2 (checked above).
                 unsafe { mul_with_scalars_avx2(&diag, &p, &off, &scalars, &x, &mut wide) }.unwrap();
-                assert!(y
-                    .iter()
-                    .zip(&wide)
-                    .all(|(a, b)| a.to_array() == b.to_array()));
+                assert!(same_bits(&y, &wide));
                 // and the block product alone
                 mul_body(&diag, &p, &off, &x, &mut y).unwrap();
                 // SAFETY: as above.
                 unsafe { mul_avx2(&diag, &p, &off, &x, &mut wide) }.unwrap();
-                assert!(y
-                    .iter()
-                    .zip(&wide)
-                    .all(|(a, b)| a.to_array() == b.to_array()));
+                assert!(same_bits(&y, &wide));
                 // and the scalar couplings' difference form, accumulating into y
                 wide.copy_from_slice(&y);
                 differences_body(&sop.pattern(), &soff, 0.37, &x, &mut y).unwrap();
                 // SAFETY: as above.
                 unsafe { differences_avx2(&sop.pattern(), &soff, 0.37, &x, &mut wide) }.unwrap();
-                assert!(y
-                    .iter()
-                    .zip(&wide)
-                    .all(|(a, b)| a.to_array() == b.to_array()));
+                assert!(same_bits(&y, &wide));
             }
         }
     }
@@ -1358,17 +1371,11 @@ pub(crate) mod tests {
     #[test]
     fn differences_summed_in_a_register_are_the_terms_added_one_at_a_time() {
         let mut rng = Lcg(5);
-        let spread = |rng: &mut Lcg| (rng.uniform() - 0.5) * 2f32.powi(rng.below(40) as i32 - 20);
         for n in [1usize, 9, 80] {
             let pairs = random_pairs(&mut rng, n, 3 * n);
             let sop = OwnedPattern::build(n, &pairs);
             let off: Vec<f32> = (0..sop.cols.len()).map(|_| spread(&mut rng)).collect();
-            let vec = |rng: &mut Lcg| -> Vec<Vec3A> {
-                (0..n)
-                    .map(|_| Vec3A::new(spread(rng), spread(rng), spread(rng)))
-                    .collect()
-            };
-            let (x, start) = (vec(&mut rng), vec(&mut rng));
+            let (x, start) = (spread_vecs(&mut rng, n), spread_vecs(&mut rng, n));
             let mut want = start.clone();
             let p = sop.pattern();
             for i in 0..n {
@@ -1386,10 +1393,7 @@ pub(crate) mod tests {
                 scale: -1.0,
             };
             scalars.add_differences(&x, &mut y).unwrap();
-            assert!(y
-                .iter()
-                .zip(&want)
-                .all(|(a, b)| a.to_array() == b.to_array()));
+            assert!(same_bits(&y, &want));
         }
     }
 
