@@ -1,4 +1,5 @@
-//! `weft-cell inspect` and `weft-cell preview`, run as the binary on synthetic blobs.
+//! `weft-cell inspect` and `weft-cell preview`, run as the binary on synthetic blobs; and
+//! `weft-bench`'s report over several trajectories.
 
 mod cells;
 
@@ -388,4 +389,55 @@ fn preview_draws_every_cell() {
             }
         }
     }
+}
+
+/// `weft-bench --trajectories K` runs its scene K times (the wind turned a little in each after
+/// the first) and reports each figure's median and range over them; the runs differ (a turned
+/// wind is another trajectory), and one trajectory prints what it always did (no spread keys).
+#[test]
+fn weft_bench_reports_the_spread_over_trajectories() {
+    let bench = |extra: &[&str]| -> serde_json::Value {
+        let out = Command::new(env!("CARGO_BIN_EXE_weft-bench"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args([
+                "--grid",
+                "9",
+                "--steps",
+                "20",
+                "--tolerance",
+                "1e-3",
+                "--json",
+            ])
+            .args(extra)
+            .output()
+            .expect("run weft-bench");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).expect("JSON")
+    };
+    let one = bench(&[]);
+    assert!(one.get("trajectories").is_none(), "{one}");
+    let many = bench(&["--trajectories", "4"]);
+    assert_eq!(many["trajectories"], 4);
+    for key in [
+        "cg_iterations_mean",
+        "cg_iterations_first_solve",
+        "worst_edge_strain",
+    ] {
+        let median = many[key].as_f64().expect(key);
+        let range = &many[format!("{key}_range")];
+        let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
+        assert!(
+            lo <= median && median <= hi,
+            "{key}: {median} outside {lo}–{hi}"
+        );
+    }
+    let strain = &many["worst_edge_strain_range"];
+    assert!(
+        strain[0].as_f64() < strain[1].as_f64(),
+        "the turned winds gave the same cloth: {strain}"
+    );
 }
