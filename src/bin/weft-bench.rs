@@ -326,29 +326,27 @@ fn real_main(args: &Args) -> Result<(), String> {
     if args.json {
         println!(
             "{}",
-            serde_json::json!({
-                "grid": args.grid,
-                "steps": args.steps,
-                "effects": args.effects,
-                "tolerance": args.tolerance,
-                "substeps": args.substeps,
-                "us_per_step_median": r.us_median,
-                "us_per_step_max": r.us_max,
-                "cg_iterations_mean": r.cg_mean,
-                "cg_iterations_per_solve": r.cg_per_solve,
-                "cg_iterations_first_solve": r.cg_first,
-                "cg_iterations_per_resolve": r.cg_per_resolve,
-                "converged_fraction": r.converged,
-                "world_bytes": r.world_bytes,
-                "solver": args.solver,
-                "steps_redone": r.redone,
-                "steps_stopped": r.stopped,
-                "energy_removed_j": r.removed,
-                "energy_drift_j": r.drift,
-                "energy_gain_worst_step_j": r.worst_gain,
-                "worst_edge_strain": r.worst_strain,
-                "final_edge_strain": r.final_strain,
-            })
+            with_scene(
+                args,
+                serde_json::json!({
+                    "us_per_step_median": r.us_median,
+                    "us_per_step_max": r.us_max,
+                    "cg_iterations_mean": r.cg_mean,
+                    "cg_iterations_per_solve": r.cg_per_solve,
+                    "cg_iterations_first_solve": r.cg_first,
+                    "cg_iterations_per_resolve": r.cg_per_resolve,
+                    "converged_fraction": r.converged,
+                    "world_bytes": r.world_bytes,
+                    "solver": args.solver,
+                    "steps_redone": r.redone,
+                    "steps_stopped": r.stopped,
+                    "energy_removed_j": r.removed,
+                    "energy_drift_j": r.drift,
+                    "energy_gain_worst_step_j": r.worst_gain,
+                    "worst_edge_strain": r.worst_strain,
+                    "final_edge_strain": r.final_strain,
+                })
+            )
         );
     } else {
         println!("grid             {0}×{0} vertices", args.grid);
@@ -409,26 +407,24 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
     if args.json {
         println!(
             "{}",
-            serde_json::json!({
-                "grid": args.grid,
-                "steps": args.steps,
-                "trajectories": runs.len(),
-                "effects": args.effects,
-                "tolerance": args.tolerance,
-                "substeps": args.substeps,
-                "solver": args.solver,
-                "us_per_step_median": us.0,
-                "us_per_step_median_range": [us.1, us.2],
-                "cg_iterations_mean": cg.0,
-                "cg_iterations_mean_range": [cg.1, cg.2],
-                "cg_iterations_first_solve": first.0,
-                "cg_iterations_first_solve_range": [first.1, first.2],
-                "steps_redone": redone,
-                "steps_stopped": stopped,
-                "energy_gain_worst_step_j": worst_gain,
-                "worst_edge_strain": strain.0,
-                "worst_edge_strain_range": [strain.1, strain.2],
-            })
+            with_scene(
+                args,
+                serde_json::json!({
+                    "trajectories": runs.len(),
+                    "solver": args.solver,
+                    "us_per_step_median": us.0,
+                    "us_per_step_median_range": [us.1, us.2],
+                    "cg_iterations_mean": cg.0,
+                    "cg_iterations_mean_range": [cg.1, cg.2],
+                    "cg_iterations_first_solve": first.0,
+                    "cg_iterations_first_solve_range": [first.1, first.2],
+                    "steps_redone": redone,
+                    "steps_stopped": stopped,
+                    "energy_gain_worst_step_j": worst_gain,
+                    "worst_edge_strain": strain.0,
+                    "worst_edge_strain_range": [strain.1, strain.2],
+                })
+            )
         );
     } else {
         println!(
@@ -455,4 +451,17 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// `figures` (a JSON object) with the scene's settings added: grid, steps, effects, tolerance
+/// and substeps.
+fn with_scene(args: &Args, mut figures: serde_json::Value) -> serde_json::Value {
+    if let Some(object) = figures.as_object_mut() {
+        object.insert("grid".into(), args.grid.into());
+        object.insert("steps".into(), args.steps.into());
+        object.insert("effects".into(), args.effects.clone().into());
+        object.insert("tolerance".into(), args.tolerance.into());
+        object.insert("substeps".into(), args.substeps.into());
+    }
+    figures
 }
