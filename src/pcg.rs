@@ -290,6 +290,12 @@ fn sum_dot(pairs: impl Iterator<Item = (Vec3A, Vec3A)> + Clone) -> f64 {
     if total.is_finite() {
         return total;
     }
+    sum_dot64(pairs)
+}
+
+/// `Σ aᵢ · bᵢ` with [`dot64`]'s test per term: the rare path of [`sum_dot`] and [`sum_dots`].
+#[cold]
+fn sum_dot64(pairs: impl Iterator<Item = (Vec3A, Vec3A)>) -> f64 {
     let mut checked = Sum4::ZERO;
     for (a, b) in pairs {
         checked.add(dot64(a, b));
@@ -309,9 +315,18 @@ fn sum_dots(r: &[Vec3A], s: &[Vec3A], p: &[Vec3A]) -> (f64, f64) {
     if rs.is_finite() && sp.is_finite() {
         return (rs, sp);
     }
+    // (each sum's fast total is known: only a sum that is not finite is summed again)
     (
-        sum_dot(r.iter().copied().zip(s.iter().copied())),
-        sum_dot(s.iter().copied().zip(p.iter().copied())),
+        if rs.is_finite() {
+            rs
+        } else {
+            sum_dot64(r.iter().copied().zip(s.iter().copied()))
+        },
+        if sp.is_finite() {
+            sp
+        } else {
+            sum_dot64(s.iter().copied().zip(p.iter().copied()))
+        },
     )
 }
 
