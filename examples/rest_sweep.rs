@@ -22,9 +22,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{
-    anisotropic, drape_sheet, drape_sphere, memory, pile_sheet, run_pile, top_speed, world,
-};
+use common::{anisotropic, drape_sheet, drape_sphere, drop_pile, memory, top_speed, world};
 use weft::world::Settings;
 
 fn main() {
@@ -115,11 +113,7 @@ fn drape(n: usize, tolerance: f32, angle: f32) -> (u32, f32, f64) {
 
 /// `(at rest by the pile test's bounds, CG it/step over the whole drop)`.
 fn pile(tolerance: f32, seed: u64) -> (bool, f64) {
-    let sheet = pile_sheet(seed);
-    let mats = [anisotropic()];
-    let mut mem = memory(&sheet.capacity());
-    let mut w = world(&mut mem, &sheet, &mats, settings(tolerance));
-    let run = run_pile(&mut w, &sheet);
+    let run = drop_pile(seed, settings(tolerance));
     (run.at_rest(), run.per_step())
 }
 

@@ -1426,14 +1426,10 @@ fn a_drape_on_a_sphere_rests_and_sleeps() {
 /// could fail it.
 #[test]
 fn a_cloth_fallen_into_a_pile_comes_to_rest() {
-    let mats = [anisotropic()];
     let mut creeping = Vec::new();
     let seeds = 1..=40u64;
     for seed in seeds.clone() {
-        let sheet = pile_sheet(seed);
-        let mut mem = memory(&sheet.capacity());
-        let mut w = world(&mut mem, &sheet, &mats, Settings::default());
-        let run = run_pile(&mut w, &sheet);
+        let run = drop_pile(seed, Settings::default());
         let (top, fastest, per_step) = (run.top, run.fastest, run.tail_per_step());
         println!(
             "seed {seed}: last {PILE_TAIL} steps {per_step} CG iterations per step, \

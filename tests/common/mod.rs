@@ -167,7 +167,7 @@ pub fn uniform(seed: u64) -> impl FnMut() -> f32 {
 
 /// The drop of `a_cloth_fallen_into_a_pile_comes_to_rest`: a 21×21 1 m curtain a millimetre
 /// out of its plane (jitter `seed`), so that it folds as it lands, 0.8 m above a floor.
-pub fn pile_sheet(seed: u64) -> Sheet {
+fn pile_sheet(seed: u64) -> Sheet {
     let mut sheet = hanging_sheet(21, 1.0);
     let mut jitter = uniform(seed);
     for p in &mut sheet.positions {
@@ -207,9 +207,18 @@ impl PileRun {
     }
 }
 
+/// The drop of [`pile_sheet`]`(seed)` (the tests' anisotropic material) with `settings`.
+pub fn drop_pile(seed: u64, settings: Settings) -> PileRun {
+    let sheet = pile_sheet(seed);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    run_pile(&mut w, &sheet)
+}
+
 /// Drops `pile_sheet`'s cloth in `w`: held by one top corner for 90 steps, then let go onto a
 /// floor of friction 0.3, 600 steps in all.
-pub fn run_pile(w: &mut World<'_>, sheet: &Sheet) -> PileRun {
+fn run_pile(w: &mut World<'_>, sheet: &Sheet) -> PileRun {
     let corner = sheet.index(0, sheet.ny - 1);
     w.set_pin(corner, sheet.positions[corner as usize]).unwrap();
     let floor = Shape::Plane {
