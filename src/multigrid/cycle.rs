@@ -54,38 +54,39 @@ fn sym_to_mat(d: &[f32]) -> Mat3A {
     )
 }
 
-#[inline(always)]
-fn mat_of(o: &[f32]) -> Mat3A {
-    match <[f32; 9]>::try_from(o) {
-        Ok(a) => Mat3A::from_cols_array(&a),
-        Err(_) => Mat3A::NAN,
-    }
-}
-
 /// The couplings of one row of a compact level, from its window `[start, end]` of the row
 /// starts: `(j, A_ij)` for each stored upper block.
 fn compact_row<'b>(
     w: &[u32],
     cols: &'b [u32],
-    off: &'b [f32],
+    off: &'b [Mat3A],
 ) -> Result<impl Iterator<Item = (usize, Mat3A)> + 'b, MgError> {
     let &[a, b] = w else {
         return Err(MgError::Internal);
     };
     let (a, b) = (a as usize, b as usize);
     let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-    let ro = off.get(9 * a..9 * b).ok_or(MgError::Internal)?;
-    Ok(rc
-        .iter()
-        .zip(ro.chunks_exact(9))
-        .map(|(&j, o)| (j as usize, mat_of(o))))
+    let ro = off.get(a..b).ok_or(MgError::Internal)?;
+    Ok(rc.iter().zip(ro).map(|(&j, &o)| (j as usize, o)))
 }
 
-#[inline(always)]
-fn add_mat(o: &mut [f32], m: &Mat3A) {
-    for (a, b) in o.iter_mut().zip(m.to_cols_array()) {
-        *a += b;
-    }
+/// A level's coupling blocks, which start on a `Mat3A` boundary of the aligned pool
+/// ([`aligned`], [`Level::floats`]).
+fn couplings(off: &[f32]) -> Result<&[Mat3A], MgError> {
+    bytemuck::try_cast_slice(off).map_err(|_| MgError::Internal)
+}
+
+/// [`couplings`], to write.
+fn couplings_mut(off: &mut [f32]) -> Result<&mut [Mat3A], MgError> {
+    bytemuck::try_cast_slice_mut(off).map_err(|_| MgError::Internal)
+}
+
+/// `blocks` from its first `Mat3A` boundary on (the caller's pool need only be `f32`-aligned;
+/// [`blocks_len`] counts the floats this may skip).
+fn aligned(blocks: &mut [f32]) -> &mut [f32] {
+    let skip = blocks.as_ptr().align_offset(core::mem::align_of::<Mat3A>());
+    let len = blocks.len();
+    blocks.get_mut(skip.min(len)..).unwrap_or_default()
 }
 
 /// Inverse of a symmetric positive semidefinite block (from its symmetric part), in `f64`,
@@ -120,13 +121,13 @@ fn inverse_sym(m: &Mat3A) -> Sym {
 }
 
 crate::cpu::multiversion! {
-    /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (9 per
-    /// coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
+    /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (a
+    /// block per coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
     fn coarse_mul, coarse_mul_avx2 => coarse_mul_body(
         diag: &[f32],
         rs: &[u32],
         cols: &[u32],
-        off: &[f32],
+        off: &[Mat3A],
         x: &[Vec3A],
         y: &mut [Vec3A],
     ) -> Result<(), MgError>
@@ -137,7 +138,7 @@ fn coarse_mul_body(
     diag: &[f32],
     rs: &[u32],
     cols: &[u32],
-    off: &[f32],
+    off: &[Mat3A],
     x: &[Vec3A],
     y: &mut [Vec3A],
 ) -> Result<(), MgError> {
@@ -153,19 +154,18 @@ fn coarse_mul_body(
         start = end as usize;
         let ((rc, c), (ro, o)) = cols
             .split_at_checked(len)
-            .zip(off.split_at_checked(9 * len))
+            .zip(off.split_at_checked(len))
             .ok_or(MgError::Internal)?;
         (cols, off) = (c, o);
         let (vx, vy, vz) = (xi.xxx(), xi.yyy(), xi.zzz());
         let mut acc = Vec3A::ZERO;
-        for (&j, o) in rc.iter().zip(ro.chunks_exact(9)) {
-            let m = mat_of(o);
+        for (&j, m) in rc.iter().zip(ro) {
             let j = j as usize;
             let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
                 return Err(MgError::Internal);
             };
-            acc += m * xj;
-            *yj += crate::sparse::tmul(&m, vx, vy, vz);
+            acc += *m * xj;
+            *yj += crate::sparse::tmul(m, vx, vy, vz);
         }
         if let Some(yi) = y.get_mut(i) {
             *yi += acc;
@@ -319,6 +319,7 @@ impl<'a> Multigrid<'a> {
             vectors,
         } = mem;
         let h = read_header(index).ok_or(MgError::NotBuilt)?;
+        let blocks = aligned(blocks);
         let l0 = h.levels.first().ok_or(MgError::Internal)?;
         let n = a.diag.len();
         if l0.n != n || a.pattern.n() != n || a.pattern.nnz() != l0.nnz {
@@ -341,7 +342,7 @@ impl<'a> Multigrid<'a> {
         for lv in h.levels.iter().take(h.count).skip(1) {
             part(index, lv.rs, lv.n + 1)?;
             part(index, lv.cols, lv.nnz)?;
-            part(blocks, lv.blk, 12 * lv.n + 9 * lv.nnz)?;
+            part(blocks, lv.blk, lv.floats())?;
             part(vectors, lv.vec, VECTORS_PER_LEVEL * lv.n)?;
         }
         for lv in h.levels.iter().take(h.count.saturating_sub(1)).skip(1) {
@@ -457,7 +458,7 @@ impl<'a> Multigrid<'a> {
             return Ok(());
         }
         let l1 = self.level(1)?;
-        let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
+        let ops = part_mut(self.blocks, l1.blk, l1.floats())?;
         let cp = coarse_pattern(self.index, &l1)?;
         galerkin_fine(a, self.filter, self.agg0, self.map0, &cp, ops, None)
     }
@@ -487,7 +488,7 @@ impl<'a> Multigrid<'a> {
             let big = *self.agg0.get(v as usize).ok_or(MgError::LengthMismatch)?;
             *flags.get_mut(big as usize).ok_or(MgError::Internal)? = 1;
         }
-        let ops = part_mut(self.blocks, l1.blk, 12 * l1.n + 9 * l1.nnz)?;
+        let ops = part_mut(self.blocks, l1.blk, l1.floats())?;
         let cp = coarse_pattern(self.index, &l1)?;
         galerkin_fine(a, self.filter, self.agg0, self.map0, &cp, ops, Some(flags))
     }
@@ -500,10 +501,12 @@ impl<'a> Multigrid<'a> {
         } else {
             None
         };
-        let (head, tail) = self.blocks.split_at_mut(lv.blk + 12 * lv.n + 9 * lv.nnz);
+        let end = lv.blk + lv.floats();
+        let (head, tail) = self.blocks.split_at_mut(end.min(self.blocks.len()));
         let ops = head.get_mut(lv.blk..).ok_or(MgError::Internal)?;
         let (diag, rest) = ops.split_at_mut(6 * lv.n);
         let (inv, off) = rest.split_at_mut(6 * lv.n);
+        let off = couplings(off)?;
         for (d, v) in diag.chunks_exact(6).zip(inv.chunks_exact_mut(6)) {
             v.copy_from_slice(&inverse_sym(&sym_to_mat(d)));
         }
@@ -514,13 +517,15 @@ impl<'a> Multigrid<'a> {
         let rs = part(self.index, lv.rs, lv.n + 1)?;
         let cols = part(self.index, lv.cols, lv.nnz)?;
         let cp = coarse_pattern(self.index, &next)?;
-        let nops = tail
-            .get_mut(next.blk - (lv.blk + 12 * lv.n + 9 * lv.nnz)..)
-            .and_then(|t| t.get_mut(..12 * next.n + 9 * next.nnz))
+        let nops = next
+            .blk
+            .checked_sub(end)
+            .and_then(|at| tail.get_mut(at..))
+            .and_then(|t| t.get_mut(..next.floats()))
             .ok_or(MgError::Internal)?;
         nops.fill(0.0);
         let (cdiag, rest) = nops.split_at_mut(6 * next.n);
-        let coff = rest.get_mut(6 * next.n..).ok_or(MgError::Internal)?;
+        let coff = couplings_mut(rest.get_mut(6 * next.n..).ok_or(MgError::Internal)?)?;
         for (d, &big_i) in diag.chunks_exact(6).zip(agg) {
             for (c, &v) in part_mut(cdiag, 6 * big_i as usize, 6)?.iter_mut().zip(d) {
                 *c += v;
@@ -544,9 +549,9 @@ impl<'a> Multigrid<'a> {
         }
         let dense = self.dense.get_mut(..tri(m, 0)).ok_or(MgError::Internal)?;
         dense.fill(0.0);
-        let ops = part(self.blocks, lv.blk, 12 * lv.n + 9 * lv.nnz)?;
+        let ops = part(self.blocks, lv.blk, lv.floats())?;
         let (diag, rest) = ops.split_at(6 * lv.n);
-        let off = rest.get(6 * lv.n..).ok_or(MgError::Internal)?;
+        let off = couplings(rest.get(6 * lv.n..).ok_or(MgError::Internal)?)?;
         let rs = part(self.index, lv.rs, lv.n + 1)?;
         let cols = part(self.index, lv.cols, lv.nnz)?;
         for (i, d) in diag.chunks_exact(6).enumerate() {
@@ -1083,7 +1088,7 @@ fn forward(
     inv: &[f32],
     rs: &[u32],
     cols: &[u32],
-    off: &[f32],
+    off: &[Mat3A],
     t: &mut [Vec3A],
     z: &mut [Vec3A],
 ) -> Result<(), MgError> {
@@ -1107,7 +1112,7 @@ fn backward(
     inv: &[f32],
     rs: &[u32],
     cols: &[u32],
-    off: &[f32],
+    off: &[Mat3A],
     t: &mut [Vec3A],
     z: &mut [Vec3A],
 ) -> Result<(), MgError> {
@@ -1135,14 +1140,14 @@ fn level_ops<'b>(
     blocks: &'b [f32],
     index: &'b [u32],
     lv: &Level,
-) -> Result<(&'b [f32], &'b [f32], &'b [f32], &'b [u32], &'b [u32]), MgError> {
-    let ops = part(blocks, lv.blk, 12 * lv.n + 9 * lv.nnz)?;
+) -> Result<(&'b [f32], &'b [f32], &'b [Mat3A], &'b [u32], &'b [u32]), MgError> {
+    let ops = part(blocks, lv.blk, lv.floats())?;
     let (diag, rest) = ops.split_at(6 * lv.n);
     let (inv, off) = rest.split_at(6 * lv.n);
     Ok((
         diag,
         inv,
-        off,
+        couplings(off)?,
         part(index, lv.rs, lv.n + 1)?,
         part(index, lv.cols, lv.nnz)?,
     ))
@@ -1182,7 +1187,7 @@ fn galerkin_fine(
 ) -> Result<(), MgError> {
     let n1 = cp.n();
     let (cdiag, rest) = ops.split_at_mut((6 * n1).min(ops.len()));
-    let coff = rest.get_mut(6 * n1..).ok_or(MgError::Internal)?;
+    let coff = couplings_mut(rest.get_mut(6 * n1..).ok_or(MgError::Internal)?)?;
     let (map_blocks, map_scalars) = map.split_at(a.pattern.nnz().min(map.len()));
     let wanted = |big_i: u32, big_j: u32| {
         only.is_none_or(|f| {
@@ -1196,7 +1201,7 @@ fn galerkin_fine(
         }
         for (k, big_j) in cp.upper(big_i) {
             if wanted(big_i as u32, big_j as u32) {
-                part_mut(coff, 9 * k, 9)?.fill(0.0);
+                *coff.get_mut(k).ok_or(MgError::Internal)? = Mat3A::ZERO;
             }
         }
     }
@@ -1263,7 +1268,7 @@ fn galerkin_fine(
 #[inline(always)]
 fn place(
     cdiag: &mut [f32],
-    coff: &mut [f32],
+    coff: &mut [Mat3A],
     code: u32,
     i: usize,
     f: &Mat3A,
@@ -1271,12 +1276,11 @@ fn place(
     if code == SAME {
         sym_add(part_mut(cdiag, 6 * i, 6)?, f, 2.0);
     } else if code & TRANSPOSED == 0 {
-        add_mat(part_mut(coff, 9 * code as usize, 9)?, f);
+        *coff.get_mut(code as usize).ok_or(MgError::Internal)? += *f;
     } else {
-        add_mat(
-            part_mut(coff, 9 * (code & !TRANSPOSED) as usize, 9)?,
-            &f.transpose(),
-        );
+        *coff
+            .get_mut((code & !TRANSPOSED) as usize)
+            .ok_or(MgError::Internal)? += f.transpose();
     }
     Ok(())
 }
@@ -1285,7 +1289,7 @@ fn place(
 /// `(row, col)` upper block) to the coarse operator of pattern `cp`.
 fn accumulate(
     cdiag: &mut [f32],
-    coff: &mut [f32],
+    coff: &mut [Mat3A],
     cp: &Pattern<'_>,
     i: usize,
     j: usize,
@@ -1305,7 +1309,7 @@ fn coarse_residual(
     diag: &[f32],
     rs: &[u32],
     cols: &[u32],
-    off: &[f32],
+    off: &[Mat3A],
     r: &[Vec3A],
     z: &[Vec3A],
     t: &mut [Vec3A],
@@ -1727,9 +1731,9 @@ mod tests {
                 }
             }
         }
-        let ops = &mg.blocks[l1.blk..l1.blk + 12 * l1.n + 9 * l1.nnz];
+        let ops = &mg.blocks[l1.blk..l1.blk + l1.floats()];
         let cdiag: Vec<Mat3A> = ops[..6 * l1.n].chunks(6).map(sym_to_mat).collect();
-        let coff: Vec<Mat3A> = ops[12 * l1.n..].chunks(9).map(mat_of).collect();
+        let coff = couplings(&ops[12 * l1.n..]).unwrap().to_vec();
         let cp = coarse_pattern(mg.index, &l1).unwrap();
         let got = dense(&cdiag, &cp, &coff);
         let scale = want.iter().fold(0.0f64, |s, v| s.max(v.abs()));
@@ -1955,6 +1959,49 @@ mod tests {
             assert!(info.levels >= 3, "{info:?}");
             let mut mg = Multigrid::new(mem.mem(), c.sys.matrix(), f, options).unwrap();
             assert_symmetric_positive(&mut mg, f, &mut rng, true, &format!("{options:?}"));
+        }
+    }
+
+    /// The coupling blocks are read as `Mat3A` from the pool's first 16-byte boundary on: a
+    /// pool lent one, two or three floats off that boundary holds the same operators and
+    /// gives the same cycle, bit for bit.
+    #[test]
+    fn a_pool_off_a_block_boundary_gives_the_same_cycle() {
+        let (mut rng, c, filter) = constrained_cloth(11);
+        let n = c.sys.diag.len();
+        let r: Vec<Vec3A> = (0..n).map(|i| filter[i] * rng.vec()).collect();
+        let (mut mem, info) = built(&c.sys, Some(graph(&c)));
+        assert!(info.levels >= 2 && info.couplings[1] > 0, "{info:?}");
+        let len = mem.blocks.len();
+        let mut pool = vec![0.0f32; len + 3];
+        let mut cycles = Vec::new();
+        for skip in 0..4 {
+            let mut memory = mem.mem();
+            // `skip` = 0 is the test allocator's own (aligned) pool
+            if skip > 0 {
+                memory.blocks = &mut pool[skip..skip + len];
+            }
+            let pointer = memory.blocks.as_ptr() as usize;
+            let mut mg =
+                Multigrid::new(memory, c.sys.matrix(), Some(&filter), Options::default()).unwrap();
+            let (mut z, mut t) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+            mg.apply(&r, &mut z, &mut t);
+            assert!(z.iter().all(|v| v.is_finite()));
+            cycles.push((pointer % 16, z));
+        }
+        let offsets: std::collections::BTreeSet<usize> = cycles.iter().map(|c| c.0).collect();
+        assert_eq!(
+            offsets.len(),
+            4,
+            "every offset from a boundary: {offsets:?}"
+        );
+        for (_, z) in &cycles[1..] {
+            for (a, b) in z.iter().zip(&cycles[0].1) {
+                assert_eq!(
+                    a.to_array().map(f32::to_bits),
+                    b.to_array().map(f32::to_bits)
+                );
+            }
         }
     }
 

@@ -56,7 +56,8 @@ pub fn build(
         }
     }
     let all = nnz0 + scalars.nnz();
-    let blocks_cap = blocks_len(n0, all);
+    // what is left of the lent pool after its first `Mat3A` boundary (`Multigrid::new`)
+    let blocks_cap = blocks_len(n0, all).saturating_sub(3);
     let vectors_cap = vectors_len(n0, all).min(vectors);
     if index.len() < index_len(n0, all) || agg0.len() < n0 || scratch.len() < scratch_len(n0, all) {
         return Err(MgError::MemoryTooSmall);
@@ -123,10 +124,11 @@ pub fn build(
     }
     // Operators and vectors of the coarse levels (after the finest level's inverse and lumped
     // floats); a level that does not fit the budgets is dropped.
-    let (mut blk, mut vec) = (FINE_FLOATS * n0, 0usize);
+    // (On a `Mat3A` boundary of the aligned pool: `floats()` is a multiple of 4 too.)
+    let (mut blk, mut vec) = ((FINE_FLOATS * n0).next_multiple_of(4), 0usize);
     let mut keep = 1;
     for lv in levels.iter_mut().take(count).skip(1) {
-        let need_b = 12 * lv.n + 9 * lv.nnz;
+        let need_b = lv.floats();
         let need_v = VECTORS_PER_LEVEL * lv.n;
         if blk + need_b > blocks_cap || vec + need_v > vectors_cap {
             break;

@@ -194,16 +194,30 @@ const FINE_FLOATS: usize = 7;
 
 /// `f32` entries of [`Memory::blocks`]: the finest level's inverse diagonal blocks (6 floats
 /// each, symmetric) and lumped scalar couplings (1 float each), and the coarse operators (a
-/// symmetric diagonal block and its inverse per coarse vertex; 9 floats per coarse coupling).
+/// symmetric diagonal block and its inverse per coarse vertex; a `Mat3A`, 12 floats, per
+/// coarse coupling), and [`ALIGN_SLACK`] floats for aligning them to `Mat3A`.
 /// Rewritten by every [`Multigrid::new`], so a caller may lend memory that is free during the
 /// solve (the World lends its block-Jacobi array).
 pub const fn blocks_len(vertices: usize, couplings: usize) -> usize {
-    vertices.saturating_mul(FINE_FLOATS).saturating_add(
-        coarse_vertices(vertices)
-            .saturating_mul(12)
-            .saturating_add(coarse_couplings(couplings).saturating_mul(9)),
-    )
+    vertices
+        .saturating_mul(FINE_FLOATS)
+        .saturating_add(ALIGN_SLACK)
+        .saturating_add(
+            coarse_vertices(vertices)
+                .saturating_mul(12)
+                .saturating_add(coarse_couplings(couplings).saturating_mul(COUPLING_FLOATS)),
+        )
 }
+
+/// `f32` entries of a coarse coupling block: a [`Mat3A`], read with three aligned loads. (Nine
+/// packed floats took nine loads and as many shuffles per block in every coarse product, about
+/// a quarter of its instructions.)
+const COUPLING_FLOATS: usize = core::mem::size_of::<Mat3A>() / core::mem::size_of::<f32>();
+
+/// Floats of [`Memory::blocks`] that may go to alignment: up to 3 before the pool's first
+/// `Mat3A` boundary (the caller's slice need only be `f32`-aligned), and up to 3 after the
+/// finest level's floats, where the coarse levels start on a boundary.
+const ALIGN_SLACK: usize = 6;
 
 /// `u32` entries of [`build`]'s scratch (only used during the build).
 pub const fn scratch_len(vertices: usize, couplings: usize) -> usize {
@@ -392,6 +406,11 @@ struct Level {
 }
 
 impl Level {
+    /// Floats of its operator in [`Memory::blocks`]: diagonal blocks and their inverses (6
+    /// floats each, symmetric) and its coupling blocks ([`COUPLING_FLOATS`] each).
+    fn floats(&self) -> usize {
+        12 * self.n + COUPLING_FLOATS * self.nnz
+    }
     fn to_words(self) -> [u32; LEVEL_WORDS] {
         [
             self.n, self.nnz, self.agg, self.rs, self.cols, self.blk, self.vec,
