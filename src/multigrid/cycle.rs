@@ -3,25 +3,36 @@
 
 use super::*;
 use crate::sparse::Scalars;
-use glam::Vec3Swizzles;
+use glam::{Vec3Swizzles, Vec4Swizzles};
 
 // ----- small block helpers -----
 
-/// Symmetric 3×3 block as `[xx, yy, zz, xy, xz, yz]`.
+/// Symmetric 3×3 block as its upper triangle row by row, `[xx, xy, xz, yy, yz, zz]`: each
+/// column is three of four consecutive floats ([`sym_mul`]).
 type Sym = [f32; 6];
+
+/// Four consecutive floats of `d` from `at`, in one unaligned load.
+#[inline(always)]
+fn quad(d: &[f32], at: usize) -> Option<glam::Vec4> {
+    let q = d.get(at..at.checked_add(4)?)?;
+    <[f32; 4]>::try_from(q).ok().map(glam::Vec4::from)
+}
 
 #[inline(always)]
 fn sym_mul(d: &[f32], v: Vec3A) -> Vec3A {
-    let &[xx, yy, zz, xy, xz, yz] = d else {
+    // `[xx, xy, xz, yy, yz, zz]`: the columns `(xx, xy, xz)`, `(xy, yy, yz)`, `(xz, yz, zz)` are
+    // lanes 0 1 2 of the loads from 0, 1 (lanes 0 2 3) and 2 (lanes 0 2 3): three loads and
+    // two shuffles instead of six scalar loads and their inserts.
+    let (Some(a), Some(b), Some(c), 6) = (quad(d, 0), quad(d, 1), quad(d, 2), d.len()) else {
         return Vec3A::NAN;
     };
+    let (c0, c1, c2) = (
+        Vec3A::from_vec4(a),
+        Vec3A::from_vec4(b.xzww()),
+        Vec3A::from_vec4(c.xzww()),
+    );
     // Column by column, in SIMD lanes: lane k sums `d_k0 v.x + d_k1 v.y + d_k2 v.z` in the
     // same order as three scalar rows would, so the result is the same bits.
-    let (c0, c1, c2) = (
-        Vec3A::new(xx, xy, xz),
-        Vec3A::new(xy, yy, yz),
-        Vec3A::new(xz, yz, zz),
-    );
     c0 * v.xxx() + c1 * v.yyy() + c2 * v.zzz()
 }
 
@@ -31,11 +42,11 @@ fn sym_add(d: &mut [f32], m: &Mat3A, s: f32) {
     let h = 0.5 * s;
     let add = [
         s * m.x_axis.x,
-        s * m.y_axis.y,
-        s * m.z_axis.z,
         h * (m.y_axis.x + m.x_axis.y),
         h * (m.z_axis.x + m.x_axis.z),
+        s * m.y_axis.y,
         h * (m.z_axis.y + m.y_axis.z),
+        s * m.z_axis.z,
     ];
     for (a, b) in d.iter_mut().zip(add) {
         *a += b;
@@ -44,7 +55,7 @@ fn sym_add(d: &mut [f32], m: &Mat3A, s: f32) {
 
 #[inline(always)]
 fn sym_to_mat(d: &[f32]) -> Mat3A {
-    let &[xx, yy, zz, xy, xz, yz] = d else {
+    let &[xx, xy, xz, yy, yz, zz] = d else {
         return Mat3A::NAN;
     };
     Mat3A::from_cols(
@@ -111,13 +122,13 @@ fn inverse_sym(m: &Mat3A) -> Sym {
     let det = xx * c00 + xy * c01 + xz * c02;
     if det > 0.0 && c22 > 0.0 && xx > 0.0 && det.is_finite() {
         let k = 1.0 / det;
-        let e = [c00, c11, c22, c01, c02, c12].map(|v| (v * k) as f32);
+        let e = [c00, c01, c02, c11, c12, c22].map(|v| (v * k) as f32);
         if e.iter().all(|v| v.is_finite()) {
             return e;
         }
     }
     let inv = |d: f64| if d > 0.0 { (1.0 / d) as f32 } else { 0.0 };
-    [inv(xx), inv(yy), inv(zz), 0.0, 0.0, 0.0]
+    [inv(xx), 0.0, 0.0, inv(yy), 0.0, inv(zz)]
 }
 
 crate::cpu::multiversion! {
@@ -1352,7 +1363,7 @@ mod tests {
         for _ in 0..10_000 {
             let d: [f32; 6] = core::array::from_fn(|_| wide());
             let v = Vec3A::new(wide(), wide(), wide());
-            let [xx, yy, zz, xy, xz, yz] = d;
+            let [xx, xy, xz, yy, yz, zz] = d;
             let rows = [
                 xx * v.x + xy * v.y + xz * v.z,
                 xy * v.x + yy * v.y + yz * v.z,
