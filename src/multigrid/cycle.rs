@@ -92,6 +92,31 @@ fn couplings_mut(off: &mut [f32]) -> Result<&mut [Mat3A], MgError> {
     bytemuck::try_cast_slice_mut(off).map_err(|_| MgError::Internal)
 }
 
+/// The finest level's free-vertex flags in `blocks` (after its inverses and lumped weights):
+/// `1` where the filter block is the identity.
+fn free_flags_mut(blocks: &mut [f32], n: usize) -> Result<&mut [u32], MgError> {
+    Ok(bytemuck::cast_slice_mut(part_mut(blocks, 7 * n, n)?))
+}
+
+/// The filter with its free vertices flagged: `S_i v` is `v` itself where `S_i = I` (most
+/// vertices), without the 3×3 product, which costs every pass of the cycle's finest level.
+/// The product `I v` is `v` too (but for the sign of a zero component), so the cycle is the
+/// same.
+struct Flagged<'f> {
+    blocks: &'f [Mat3A],
+    free: &'f [u32],
+}
+
+impl Filter for Flagged<'_> {
+    #[inline(always)]
+    fn at(&self, i: usize, v: Vec3A) -> Vec3A {
+        if self.free.get(i).is_some_and(|&f| f != 0) {
+            return v;
+        }
+        self.blocks.get(i).map_or(v, |s| *s * v)
+    }
+}
+
 /// `blocks` from its first `Mat3A` boundary on (the caller's pool need only be `f32`-aligned;
 /// [`blocks_len`] counts the floats this may skip).
 fn aligned(blocks: &mut [f32]) -> &mut [f32] {
@@ -452,8 +477,8 @@ impl<'a> Multigrid<'a> {
         Ok(inverse_sym(&filtered(self.filter, i, &d)))
     }
 
-    /// Finest level: `D̂_i⁻¹` for the smoother (after the lumped weights, if any) and the
-    /// Galerkin operator of level 1.
+    /// Finest level: `D̂_i⁻¹` for the smoother (after the lumped weights, if any), which
+    /// vertices are free, and the Galerkin operator of level 1.
     fn setup_fine(&mut self) -> Result<(), MgError> {
         let a = self.a;
         let n = a.diag.len();
@@ -464,6 +489,12 @@ impl<'a> Multigrid<'a> {
         for (i, d) in a.diag.iter().enumerate() {
             let inv = self.fine_inverse(i, d)?;
             part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+        }
+        if let Some(filter) = self.filter {
+            let free = free_flags_mut(self.blocks, n)?;
+            for (flag, s) in free.iter_mut().zip(filter) {
+                *flag = u32::from(*s == Mat3A::IDENTITY);
+            }
         }
         if self.count < 2 {
             return Ok(());
@@ -484,6 +515,15 @@ impl<'a> Multigrid<'a> {
             let i = v as usize;
             let inv = self.fine_inverse(i, a.diag.get(i).ok_or(MgError::LengthMismatch)?)?;
             part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+        }
+        if let Some(filter) = self.filter {
+            let n = a.diag.len();
+            let free = free_flags_mut(self.blocks, n)?;
+            for &v in changed {
+                let i = v as usize;
+                let s = filter.get(i).ok_or(MgError::LengthMismatch)?;
+                *free.get_mut(i).ok_or(MgError::LengthMismatch)? = u32::from(*s == Mat3A::IDENTITY);
+            }
         }
         if self.count < 2 {
             return Ok(());
@@ -621,15 +661,26 @@ impl<'a> Multigrid<'a> {
         z0: &mut [Vec3A],
         t0: &mut [Vec3A],
     ) -> Result<(), MgError> {
-        match self.filter {
-            None => self.cycle_with(&Free, r0, z0, t0),
-            Some(f) => self.cycle_with(&Blocks(f), r0, z0, t0),
-        }
+        // The operators are read-only in a cycle: lent out of `self` for it, so that the
+        // filter can borrow the free-vertex flags among them.
+        let ops = core::mem::take(&mut self.blocks);
+        let n = self.a.diag.len();
+        let result = match (self.filter, part(ops, 7 * n, n)) {
+            (None, _) => self.cycle_with(ops, &Free, r0, z0, t0),
+            (Some(blocks), Ok(free)) => {
+                let free = bytemuck::cast_slice(free);
+                self.cycle_with(ops, &Flagged { blocks, free }, r0, z0, t0)
+            }
+            (Some(_), Err(e)) => Err(e),
+        };
+        self.blocks = ops;
+        result
     }
 
     #[inline(always)]
     fn cycle_with<F: Filter>(
         &mut self,
+        blocks: &[f32],
         f: &F,
         r0: &[Vec3A],
         z0: &mut [Vec3A],
@@ -646,7 +697,6 @@ impl<'a> Multigrid<'a> {
         let Multigrid {
             agg0,
             index,
-            blocks,
             dense,
             vectors,
             a,
@@ -1347,7 +1397,7 @@ impl Preconditioner for Multigrid<'_> {
 mod tests {
     use super::*;
     use crate::pcg::tests::Scratch;
-    use crate::pcg::{self, solve_with, Settings};
+    use crate::pcg::{self, solve_with, Blocks, Settings};
     use crate::sparse::tests::{dense, random_pairs, spring_system, Lcg, OwnedPattern};
     use crate::sparse::{add_block, Scalars};
 
@@ -1971,6 +2021,51 @@ mod tests {
             let mut mg = Multigrid::new(mem.mem(), c.sys.matrix(), f, options).unwrap();
             assert_symmetric_positive(&mut mg, f, &mut rng, true, &format!("{options:?}"));
         }
+    }
+
+    /// The cycle skips the filter's product on the vertices flagged free (`Flagged`): it is the
+    /// cycle of the filter's blocks applied everywhere, bit for bit, and a flag that lies (a
+    /// held vertex marked free) changes it.
+    #[test]
+    fn the_free_vertex_flags_are_the_filter() {
+        let (mut rng, c, filter) = constrained_cloth(5);
+        let n = filter.len();
+        let held = filter.iter().filter(|s| **s != Mat3A::IDENTITY).count();
+        assert!(held > 10 && held < n / 2, "{held} of {n}");
+        let (mut mem, _) = built(&c.sys, Some(graph(&c)));
+        let mut mg =
+            Multigrid::new(mem.mem(), c.sys.matrix(), Some(&filter), Options::default()).unwrap();
+        // a residual with a component the filter takes out, and one that it keeps
+        let r: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+        let (mut flagged, mut t) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+        mg.apply(&r, &mut flagged, &mut t);
+        let ops = core::mem::take(&mut mg.blocks);
+        let mut every = vec![Vec3A::ZERO; n];
+        mg.cycle_with(ops, &Blocks(&filter), &r, &mut every, &mut t)
+            .unwrap();
+        let bits = |z: &[Vec3A]| {
+            z.iter()
+                .map(|v| v.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&flagged), bits(&every));
+        // flag a held vertex free: the cycle no longer filters it
+        let i = filter.iter().position(|s| *s != Mat3A::IDENTITY).unwrap();
+        free_flags_mut(ops, n).unwrap()[i] = 1;
+        let free = bytemuck::cast_slice(&ops[7 * n..8 * n]);
+        let mut lying = vec![Vec3A::ZERO; n];
+        mg.cycle_with(
+            ops,
+            &Flagged {
+                blocks: &filter,
+                free,
+            },
+            &r,
+            &mut lying,
+            &mut t,
+        )
+        .unwrap();
+        assert_ne!(bits(&lying), bits(&every));
     }
 
     /// The coupling blocks are read as `Mat3A` from the pool's first 16-byte boundary on: a

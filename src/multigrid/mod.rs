@@ -121,7 +121,7 @@
     clippy::unreachable
 )]
 
-use crate::pcg::{Blocks, Filter, Free, Preconditioner};
+use crate::pcg::{Filter, Free, Preconditioner};
 use crate::sparse::{BlockMatrix, Pattern};
 use glam::{Mat3A, Vec3A};
 
@@ -189,8 +189,10 @@ pub const fn index_len(vertices: usize, couplings: usize) -> usize {
 }
 
 /// `f32` entries of [`Memory::blocks`] per finest-level vertex: its inverse diagonal block (6
-/// floats, symmetric) and the weight of its lumped scalar couplings ([`Options::lumped`]).
-const FINE_FLOATS: usize = 7;
+/// floats, symmetric), the weight of its lumped scalar couplings ([`Options::lumped`]) and
+/// whether its filter block is the identity (a `u32` 0 or 1: the cycle's passes skip the
+/// filter's 3×3 product on free vertices, most of them).
+const FINE_FLOATS: usize = 8;
 
 /// `f32` entries of [`Memory::blocks`]: the finest level's inverse diagonal blocks (6 floats
 /// each, symmetric) and lumped scalar couplings (1 float each), and the coarse operators (a
