@@ -92,8 +92,14 @@ fn couplings_mut(off: &mut [f32]) -> Result<&mut [Mat3A], MgError> {
     bytemuck::try_cast_slice_mut(off).map_err(|_| MgError::Internal)
 }
 
-/// The finest level's free-vertex flags in `blocks` (after its inverses and lumped weights):
-/// `1` where the filter block is the identity.
+/// The finest level's free-vertex flags in `blocks` (after its `n` inverses and lumped
+/// weights, [`FINE_FLOATS`]): `1` where the filter block is the identity (every vertex after a
+/// setup without a filter).
+fn free_flags(blocks: &[f32], n: usize) -> Result<&[u32], MgError> {
+    Ok(bytemuck::cast_slice(part(blocks, 7 * n, n)?))
+}
+
+/// [`free_flags`], to write.
 fn free_flags_mut(blocks: &mut [f32], n: usize) -> Result<&mut [u32], MgError> {
     Ok(bytemuck::cast_slice_mut(part_mut(blocks, 7 * n, n)?))
 }
@@ -158,7 +164,8 @@ fn inverse_sym(m: &Mat3A) -> Sym {
 
 crate::cpu::multiversion! {
     /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (a
-    /// block per coupling). The AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
+    /// block per coupling). The AVX2 build where the processor has it ([`crate::cpu`];
+    /// bit-identical).
     fn coarse_mul, coarse_mul_avx2 => coarse_mul_body(
         diag: &[f32],
         rs: &[u32],
@@ -490,11 +497,15 @@ impl<'a> Multigrid<'a> {
             let inv = self.fine_inverse(i, d)?;
             part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
         }
-        if let Some(filter) = self.filter {
-            let free = free_flags_mut(self.blocks, n)?;
-            for (flag, s) in free.iter_mut().zip(filter) {
-                *flag = u32::from(*s == Mat3A::IDENTITY);
+        // (all free without a filter: a later `renew` with one changes only its vertices)
+        let free = free_flags_mut(self.blocks, n)?;
+        match self.filter {
+            Some(filter) => {
+                for (flag, s) in free.iter_mut().zip(filter) {
+                    *flag = u32::from(*s == Mat3A::IDENTITY);
+                }
             }
+            None => free.fill(1),
         }
         if self.count < 2 {
             return Ok(());
@@ -665,12 +676,9 @@ impl<'a> Multigrid<'a> {
         // filter can borrow the free-vertex flags among them.
         let ops = core::mem::take(&mut self.blocks);
         let n = self.a.diag.len();
-        let result = match (self.filter, part(ops, 7 * n, n)) {
+        let result = match (self.filter, free_flags(ops, n)) {
             (None, _) => self.cycle_with(ops, &Free, r0, z0, t0),
-            (Some(blocks), Ok(free)) => {
-                let free = bytemuck::cast_slice(free);
-                self.cycle_with(ops, &Flagged { blocks, free }, r0, z0, t0)
-            }
+            (Some(blocks), Ok(free)) => self.cycle_with(ops, &Flagged { blocks, free }, r0, z0, t0),
             (Some(_), Err(e)) => Err(e),
         };
         self.blocks = ops;
@@ -2052,7 +2060,7 @@ mod tests {
         // flag a held vertex free: the cycle no longer filters it
         let i = filter.iter().position(|s| *s != Mat3A::IDENTITY).unwrap();
         free_flags_mut(ops, n).unwrap()[i] = 1;
-        let free = bytemuck::cast_slice(&ops[7 * n..8 * n]);
+        let free = free_flags(ops, n).unwrap();
         let mut lying = vec![Vec3A::ZERO; n];
         mg.cycle_with(
             ops,
@@ -2369,6 +2377,35 @@ mod tests {
             Multigrid::renew(renewed.mem(), c.sys.matrix(), Some(&after), &bad, options).err(),
             Some(MgError::LengthMismatch)
         );
+    }
+
+    /// The World renews an unconstrained solve's operators for one that catches a few
+    /// vertices (`contacts::engage`): from a setup without a filter, `renew` with one is `new`
+    /// with it, bit for bit (its free-vertex flags included).
+    #[test]
+    fn renew_after_an_unconstrained_setup_is_new_bit_for_bit() {
+        let (mut rng, c, _) = constrained_cloth(31);
+        let n = c.sys.diag.len();
+        let options = Options::default();
+        let (mut renewed, _) = built(&c.sys, Some(graph(&c)));
+        let mut fresh = built(&c.sys, Some(graph(&c))).0;
+        Multigrid::new(renewed.mem(), c.sys.matrix(), None, options).unwrap();
+        let mut after = vec![Mat3A::IDENTITY; n];
+        let changed: Vec<u32> = (0..n as u32).filter(|i| i % 23 == 4).collect();
+        for &i in &changed {
+            after[i as usize] = Mat3A::IDENTITY - nn(rng.vec() + Vec3A::Z);
+        }
+        Multigrid::renew(
+            renewed.mem(),
+            c.sys.matrix(),
+            Some(&after),
+            &changed,
+            options,
+        )
+        .unwrap();
+        Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&renewed.blocks), bits(&fresh.blocks));
     }
 
     #[test]

@@ -197,7 +197,7 @@ const FINE_FLOATS: usize = 8;
 /// `f32` entries of [`Memory::blocks`]: the finest level's inverse diagonal blocks (6 floats
 /// each, symmetric) and lumped scalar couplings (1 float each), and the coarse operators (a
 /// symmetric diagonal block and its inverse per coarse vertex; a `Mat3A`, 12 floats, per
-/// coarse coupling), and [`ALIGN_SLACK`] floats for aligning them to `Mat3A`.
+/// coarse coupling), and 6 floats of slack for aligning them to `Mat3A`.
 /// Rewritten by every [`Multigrid::new`], so a caller may lend memory that is free during the
 /// solve (the World lends its block-Jacobi array).
 pub const fn blocks_len(vertices: usize, couplings: usize) -> usize {
