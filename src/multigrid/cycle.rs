@@ -2323,11 +2323,7 @@ mod tests {
     fn renew_after_a_local_filter_change_is_new_bit_for_bit() {
         let (mut rng, c, before) = constrained_cloth(29);
         let n = before.len();
-        let (mut renewed, info) = built(&c.sys, Some(graph(&c)));
-        assert!(info.levels >= 3, "{info:?}");
-        let mut fresh = built(&c.sys, Some(graph(&c))).0;
         let options = Options::default();
-        Multigrid::new(renewed.mem(), c.sys.matrix(), Some(&before), options).unwrap();
         // let go of every other held vertex, and catch a few free ones
         let mut after = before.clone();
         let mut changed = Vec::new();
@@ -2343,17 +2339,9 @@ mod tests {
             }
         }
         assert!(changed.len() > 5);
-        Multigrid::renew(
-            renewed.mem(),
-            c.sys.matrix(),
-            Some(&after),
-            &changed,
-            options,
-        )
-        .unwrap();
-        Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
-        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(bits(&renewed.blocks), bits(&fresh.blocks));
+        let (mut renewed, mut fresh, info) =
+            assert_renew_is_new(&c, Some(&before), &after, &changed);
+        assert!(info.levels >= 3, "{info:?}");
         assert_eq!(
             renewed
                 .dense
@@ -2386,26 +2374,32 @@ mod tests {
     fn renew_after_an_unconstrained_setup_is_new_bit_for_bit() {
         let (mut rng, c, _) = constrained_cloth(31);
         let n = c.sys.diag.len();
-        let options = Options::default();
-        let (mut renewed, _) = built(&c.sys, Some(graph(&c)));
-        let mut fresh = built(&c.sys, Some(graph(&c))).0;
-        Multigrid::new(renewed.mem(), c.sys.matrix(), None, options).unwrap();
         let mut after = vec![Mat3A::IDENTITY; n];
         let changed: Vec<u32> = (0..n as u32).filter(|i| i % 23 == 4).collect();
         for &i in &changed {
             after[i as usize] = Mat3A::IDENTITY - nn(rng.vec() + Vec3A::Z);
         }
-        Multigrid::renew(
-            renewed.mem(),
-            c.sys.matrix(),
-            Some(&after),
-            &changed,
-            options,
-        )
-        .unwrap();
-        Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
+        assert_renew_is_new(&c, None, &after, &changed);
+    }
+
+    /// Sets up `c`'s operators for the filter `before`, renews them for `after` (which differs
+    /// at `changed`) and asserts the pool is what a fresh setup for `after` makes, bit for bit.
+    /// Returns the renewed memory, the fresh one and the hierarchy's shape.
+    fn assert_renew_is_new(
+        c: &Cloth,
+        before: Option<&[Mat3A]>,
+        after: &[Mat3A],
+        changed: &[u32],
+    ) -> (Mem, Mem, Info) {
+        let options = Options::default();
+        let (mut renewed, info) = built(&c.sys, Some(graph(c)));
+        let mut fresh = built(&c.sys, Some(graph(c))).0;
+        Multigrid::new(renewed.mem(), c.sys.matrix(), before, options).unwrap();
+        Multigrid::renew(renewed.mem(), c.sys.matrix(), Some(after), changed, options).unwrap();
+        Multigrid::new(fresh.mem(), c.sys.matrix(), Some(after), options).unwrap();
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&renewed.blocks), bits(&fresh.blocks));
+        (renewed, fresh, info)
     }
 
     #[test]
