@@ -524,7 +524,7 @@ fn differences_body(
 /// The columns and values of the row whose window of row starts is `w` (`[start, end]`); a
 /// window out of order or beyond `cols` / `vals` is [`SparseError::InvalidPattern`].
 #[inline(always)]
-fn row_of<'c, T>(
+pub(crate) fn row_of<'c, T>(
     w: &[u32],
     cols: &'c [u32],
     vals: &'c [T],

@@ -72,12 +72,7 @@ fn compact_row<'b>(
     cols: &'b [u32],
     off: &'b [Mat3A],
 ) -> Result<impl Iterator<Item = (usize, Mat3A)> + 'b, MgError> {
-    let &[a, b] = w else {
-        return Err(MgError::Internal);
-    };
-    let (a, b) = (a as usize, b as usize);
-    let rc = cols.get(a..b).ok_or(MgError::Internal)?;
-    let ro = off.get(a..b).ok_or(MgError::Internal)?;
+    let (rc, ro) = crate::sparse::row_of(w, cols, off).map_err(|_| MgError::Internal)?;
     Ok(rc.iter().zip(ro).map(|(&j, &o)| (j as usize, o)))
 }
 
