@@ -435,20 +435,29 @@ fn block_row(
     mut acc: Vec3A,
     rc: &[u32],
     ro: &[Mat3A],
-    xi: Vec3A,
+    xi: &Vec3A,
     x: &[Vec3A],
     y: &mut [Vec3A],
 ) -> Result<Vec3A, SparseError> {
-    let (vx, vy, vz) = (xi.xxx(), xi.yyy(), xi.zzz());
+    let (vx, vy, vz) = (Vec3A::splat(xi.x), Vec3A::splat(xi.y), Vec3A::splat(xi.z));
     for (&j, m) in rc.iter().zip(ro) {
         let j = j as usize;
-        let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
+        let (Some(xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
             return Err(SparseError::InvalidPattern);
         };
-        acc += *m * xj;
+        acc += gather(m, xj);
         *yj += tmul(m, vx, vy, vz);
     }
     Ok(acc)
+}
+
+/// `m x`, the sum `Mat3A * Vec3A` forms (the same bits), with each component of `x` splatted
+/// from memory: an AVX2 build then broadcasts it with a load (`vbroadcastss`) instead of
+/// shuffling a loaded `x`, and the kernels are bound by their shuffles (the transpose of
+/// [`tmul`] takes five more a block).
+#[inline(always)]
+pub(crate) fn gather(m: &Mat3A, x: &Vec3A) -> Vec3A {
+    m.x_axis * Vec3A::splat(x.x) + m.y_axis * Vec3A::splat(x.y) + m.z_axis * Vec3A::splat(x.z)
 }
 
 /// The scalar twin of [`block_row`]: returns `acc + Σ_j s_ij x_j` and scatters `s_ij sxi`
@@ -600,10 +609,10 @@ fn mul_body(
     // written. Going backwards is what lets the diagonal join the row pass: forwards, every
     // y_j would need initializing before earlier rows scatter into it (a second pass over y).
     let (mut cols, mut off) = (cols, off);
-    for (i, (&xi, d)) in x.iter().zip(diag).enumerate().rev() {
+    for (i, (xi, d)) in x.iter().zip(diag).enumerate().rev() {
         let (rc, ro);
         (cols, off, rc, ro) = last_row(p.row_start.get(i), cols, off)?;
-        let acc = block_row(*d * xi, rc, ro, xi, x, y)?;
+        let acc = block_row(gather(d, xi), rc, ro, xi, x, y)?;
         if let Some(yi) = y.get_mut(i) {
             *yi = acc;
         }
@@ -669,7 +678,7 @@ fn mul_with_scalars_body(
     };
     let scale = s.scale;
     let (mut cols, mut off, mut scols, mut soff) = (cols, off, scols, soff);
-    for (i, (&xi, d)) in x.iter().zip(diag).enumerate().rev() {
+    for (i, (xi, d)) in x.iter().zip(diag).enumerate().rev() {
         let (rc, ro, sc, so);
         (cols, off, rc, ro) = last_row(p.row_start.get(i), cols, off)?;
         (scols, soff, sc, so) = last_row(s.pattern.row_start.get(i), scols, soff)?;
@@ -678,7 +687,7 @@ fn mul_with_scalars_body(
         // laminate of contrast 1e6 creeping at the f32 noise floor (`tests/hard_cases.rs`)
         // moved at 7.3 mm/s this way and 14 mm/s with the scalars summed first.
         let sacc = scalar_row(Vec3A::ZERO, sc, so, scale * xi, x, y)?;
-        let acc = block_row(*d * xi, rc, ro, xi, x, y)?;
+        let acc = block_row(gather(d, xi), rc, ro, xi, x, y)?;
         if let Some(yi) = y.get_mut(i) {
             *yi = acc + scale * sacc;
         }

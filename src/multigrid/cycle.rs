@@ -187,7 +187,7 @@ fn coarse_mul_body(
     // and one comparison per row), the broadcasts of `x_i` hoisted out of the row.
     let (mut cols, mut off) = (cols, off);
     let mut start = 0usize;
-    for (i, (&end, &xi)) in rs.get(1..).unwrap_or(&[]).iter().zip(x).enumerate() {
+    for (i, (&end, xi)) in rs.get(1..).unwrap_or(&[]).iter().zip(x).enumerate() {
         let len = (end as usize).checked_sub(start).ok_or(MgError::Internal)?;
         start = end as usize;
         let ((rc, c), (ro, o)) = cols
@@ -195,14 +195,14 @@ fn coarse_mul_body(
             .zip(off.split_at_checked(len))
             .ok_or(MgError::Internal)?;
         (cols, off) = (c, o);
-        let (vx, vy, vz) = (xi.xxx(), xi.yyy(), xi.zzz());
+        let (vx, vy, vz) = (Vec3A::splat(xi.x), Vec3A::splat(xi.y), Vec3A::splat(xi.z));
         let mut acc = Vec3A::ZERO;
         for (&j, m) in rc.iter().zip(ro) {
             let j = j as usize;
-            let (Some(&xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
+            let (Some(xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
                 return Err(MgError::Internal);
             };
-            acc += *m * xj;
+            acc += crate::sparse::gather(m, xj);
             *yj += crate::sparse::tmul(m, vx, vy, vz);
         }
         if let Some(yi) = y.get_mut(i) {
