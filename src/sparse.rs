@@ -427,11 +427,11 @@ pub(crate) fn tmul(m: &Mat3A, vx: Vec3A, vy: Vec3A, vz: Vec3A) -> Vec3A {
     t.x_axis * vx + t.y_axis * vy + t.z_axis * vz
 }
 
-/// One row of the backward pass of [`mul`]: returns `acc + Σ_j A_ij x_j` over the row's
-/// stored blocks `ro` (columns `rc`), summed in column order, and scatters `A_ijᵀ x_i` into
-/// `y_j`.
+/// One row of the backward pass of [`mul`] (and of the coarse levels' product,
+/// `multigrid::cycle`): returns `acc + Σ_j A_ij x_j` over the row's stored blocks `ro`
+/// (columns `rc`), summed in column order, and scatters `A_ijᵀ x_i` into `y_j`.
 #[inline(always)]
-fn block_row(
+pub(crate) fn block_row(
     mut acc: Vec3A,
     rc: &[u32],
     ro: &[Mat3A],
@@ -453,8 +453,9 @@ fn block_row(
 
 /// `m x`, the sum `Mat3A * Vec3A` forms (the same bits), with each component of `x` splatted
 /// from memory: an AVX2 build then broadcasts it with a load (`vbroadcastss`) instead of
-/// shuffling a loaded `x`, and the kernels are bound by their shuffles (the transpose of
-/// [`tmul`] takes five more a block).
+/// shuffling a loaded `x`. The products' shuffles (the transpose in [`tmul`] takes five a
+/// block) share two of the processor's four floating-point pipes: measured, the blocks-only
+/// product took 8.6 % less time without these two (docs/PERFORMANCE.md).
 #[inline(always)]
 pub(crate) fn gather(m: &Mat3A, x: &Vec3A) -> Vec3A {
     m.x_axis * Vec3A::splat(x.x) + m.y_axis * Vec3A::splat(x.y) + m.z_axis * Vec3A::splat(x.z)

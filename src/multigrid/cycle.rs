@@ -184,7 +184,7 @@ fn coarse_mul_body(
         *yi = sym_mul(d, xi);
     }
     // Rows from first to last, each split off the front of the rows after it (one row end
-    // and one comparison per row), the broadcasts of `x_i` hoisted out of the row.
+    // and one comparison per row), each row the fine product's (`sparse::block_row`).
     let (mut cols, mut off) = (cols, off);
     let mut start = 0usize;
     for (i, (&end, xi)) in rs.get(1..).unwrap_or(&[]).iter().zip(x).enumerate() {
@@ -195,16 +195,8 @@ fn coarse_mul_body(
             .zip(off.split_at_checked(len))
             .ok_or(MgError::Internal)?;
         (cols, off) = (c, o);
-        let (vx, vy, vz) = (Vec3A::splat(xi.x), Vec3A::splat(xi.y), Vec3A::splat(xi.z));
-        let mut acc = Vec3A::ZERO;
-        for (&j, m) in rc.iter().zip(ro) {
-            let j = j as usize;
-            let (Some(xj), Some(yj)) = (x.get(j), y.get_mut(j)) else {
-                return Err(MgError::Internal);
-            };
-            acc += crate::sparse::gather(m, xj);
-            *yj += crate::sparse::tmul(m, vx, vy, vz);
-        }
+        let acc = crate::sparse::block_row(Vec3A::ZERO, rc, ro, xi, x, y)
+            .map_err(|_| MgError::Internal)?;
         if let Some(yi) = y.get_mut(i) {
             *yi += acc;
         }
