@@ -1,7 +1,7 @@
 #!/bin/sh
 # Times weft-bench binaries in turn, so they share the machine's load, for the README's tables:
 #   scripts/bench-rounds.sh OLD_BINARY NEW_BINARY [...]
-# Per grid: 3 rounds at 21/41/81 vertices per side (200/100/30 timed steps), 1 at 161 (10),
+# Per grid: 3 rounds at 21/41/81/161 vertices per side (200/100/30/10 timed steps),
 # tolerance 1e-3; each line is one run's median µs/step, CG iterations, converged share,
 # redone steps and worst edge strain. Take the median over the rounds; compare as ratios.
 set -eu
@@ -11,7 +11,7 @@ for grid in 21 41 81 161; do
     21) steps=200 rounds=3 ;;
     41) steps=100 rounds=3 ;;
     81) steps=30 rounds=3 ;;
-    *) steps=10 rounds=1 ;;
+    *) steps=10 rounds=3 ;;
     esac
     round=1
     while [ "$round" -le "$rounds" ]; do
