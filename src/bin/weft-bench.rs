@@ -324,12 +324,10 @@ fn real_main(args: &Args) -> Result<(), String> {
     }
     let r = &runs[0];
     if args.json {
-        println!(
-            "{}",
-            with_scene(
-                args,
-                serde_json::json!({
-                    "us_per_step_median": r.us_median,
+        print_json(
+            args,
+            serde_json::json!({
+                "us_per_step_median": r.us_median,
                     "us_per_step_max": r.us_max,
                     "cg_iterations_mean": r.cg_mean,
                     "cg_iterations_per_solve": r.cg_per_solve,
@@ -337,7 +335,6 @@ fn real_main(args: &Args) -> Result<(), String> {
                     "cg_iterations_per_resolve": r.cg_per_resolve,
                     "converged_fraction": r.converged,
                     "world_bytes": r.world_bytes,
-                    "solver": args.solver,
                     "steps_redone": r.redone,
                     "steps_stopped": r.stopped,
                     "energy_removed_j": r.removed,
@@ -345,8 +342,7 @@ fn real_main(args: &Args) -> Result<(), String> {
                     "energy_gain_worst_step_j": r.worst_gain,
                     "worst_edge_strain": r.worst_strain,
                     "final_edge_strain": r.final_strain,
-                })
-            )
+            }),
         );
     } else {
         println!("grid             {0}×{0} vertices", args.grid);
@@ -405,13 +401,10 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
         .map(|r| r.worst_gain)
         .fold(f64::NEG_INFINITY, f64::max);
     if args.json {
-        println!(
-            "{}",
-            with_scene(
-                args,
-                serde_json::json!({
-                    "trajectories": runs.len(),
-                    "solver": args.solver,
+        print_json(
+            args,
+            serde_json::json!({
+                "trajectories": runs.len(),
                     "us_per_step_median": us.0,
                     "us_per_step_median_range": [us.1, us.2],
                     "cg_iterations_mean": cg.0,
@@ -423,8 +416,7 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
                     "energy_gain_worst_step_j": worst_gain,
                     "worst_edge_strain": strain.0,
                     "worst_edge_strain_range": [strain.1, strain.2],
-                })
-            )
+            }),
         );
     } else {
         println!(
@@ -453,15 +445,16 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
     Ok(())
 }
 
-/// `figures` (a JSON object) with the scene's settings added: grid, steps, effects, tolerance
-/// and substeps.
-fn with_scene(args: &Args, mut figures: serde_json::Value) -> serde_json::Value {
+/// Prints `figures` (a JSON object) with the scene's settings added: grid, steps, effects,
+/// tolerance, substeps and solver.
+fn print_json(args: &Args, mut figures: serde_json::Value) {
     if let Some(object) = figures.as_object_mut() {
         object.insert("grid".into(), args.grid.into());
         object.insert("steps".into(), args.steps.into());
         object.insert("effects".into(), args.effects.clone().into());
         object.insert("tolerance".into(), args.tolerance.into());
         object.insert("substeps".into(), args.substeps.into());
+        object.insert("solver".into(), args.solver.clone().into());
     }
-    figures
+    println!("{figures}");
 }
