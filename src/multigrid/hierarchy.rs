@@ -57,7 +57,7 @@ pub fn build(
     }
     let all = nnz0 + scalars.nnz();
     // what is left of the lent pool after its first `Mat3A` boundary (`Multigrid::new`)
-    let blocks_cap = blocks_len(n0, all).saturating_sub(3);
+    let blocks_cap = blocks_len(n0, all).saturating_sub(ALIGN_SKIP);
     let vectors_cap = vectors_len(n0, all).min(vectors);
     if index.len() < index_len(n0, all) || agg0.len() < n0 || scratch.len() < scratch_len(n0, all) {
         return Err(MgError::MemoryTooSmall);

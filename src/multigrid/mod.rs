@@ -216,10 +216,13 @@ pub const fn blocks_len(vertices: usize, couplings: usize) -> usize {
 /// inner loop was 40 instructions a block, now 33.)
 const COUPLING_FLOATS: usize = core::mem::size_of::<Mat3A>() / core::mem::size_of::<f32>();
 
-/// Floats of [`Memory::blocks`] that may go to alignment: up to 3 before the pool's first
-/// `Mat3A` boundary (the caller's slice need only be `f32`-aligned), and up to 3 after the
-/// finest level's floats, where the coarse levels start on a boundary.
-const ALIGN_SLACK: usize = 6;
+/// Floats of [`Memory::blocks`] that may go to alignment: up to [`ALIGN_SKIP`] before the
+/// pool's first `Mat3A` boundary (the caller's slice need only be `f32`-aligned), and as many
+/// after the finest level's floats, where the coarse levels start on a boundary.
+const ALIGN_SLACK: usize = 2 * ALIGN_SKIP;
+
+/// Most `f32`s before an `f32`-aligned slice's first `Mat3A` boundary (3).
+const ALIGN_SKIP: usize = core::mem::align_of::<Mat3A>() / core::mem::size_of::<f32>() - 1;
 
 /// `u32` entries of [`build`]'s scratch (only used during the build).
 pub const fn scratch_len(vertices: usize, couplings: usize) -> usize {
