@@ -94,6 +94,11 @@ fn free_flags(blocks: &[f32], n: usize) -> Result<&[u32], MgError> {
     Ok(bytemuck::cast_slice(part(blocks, 7 * n, n)?))
 }
 
+/// A vertex's free-vertex flag from its filter block `s`: `1` where `s` is the identity.
+fn free_flag(s: &Mat3A) -> u32 {
+    u32::from(*s == Mat3A::IDENTITY)
+}
+
 /// [`free_flags`], to write.
 fn free_flags_mut(blocks: &mut [f32], n: usize) -> Result<&mut [u32], MgError> {
     Ok(bytemuck::cast_slice_mut(part_mut(blocks, 7 * n, n)?))
@@ -489,7 +494,7 @@ impl<'a> Multigrid<'a> {
         match self.filter {
             Some(filter) => {
                 for (flag, s) in free.iter_mut().zip(filter) {
-                    *flag = u32::from(*s == Mat3A::IDENTITY);
+                    *flag = free_flag(s);
                 }
             }
             None => free.fill(1),
@@ -520,7 +525,7 @@ impl<'a> Multigrid<'a> {
             for &v in changed {
                 let i = v as usize;
                 let s = filter.get(i).ok_or(MgError::LengthMismatch)?;
-                *free.get_mut(i).ok_or(MgError::LengthMismatch)? = u32::from(*s == Mat3A::IDENTITY);
+                *free.get_mut(i).ok_or(MgError::LengthMismatch)? = free_flag(s);
             }
         }
         if self.count < 2 {
