@@ -1252,7 +1252,8 @@ enum Pass {
     /// vertices that entered them during the substep.
     Still,
     /// The pushes: out of moving colliders, and out of any collider a vertex began the
-    /// substep deeper inside than `0.1·thickness + h·max_depenetration_speed`.
+    /// substep deeper inside than `0.1·thickness + h·max_depenetration_speed` and the
+    /// rounding of its distance (`Shape::rounding`).
     Pushes,
 }
 
@@ -1272,8 +1273,18 @@ fn project(
     let pins = pins_on(c, st);
     let mut pushes_left = false;
     let (mut contacts, mut work) = (0u32, 0.0f64);
-    let depth_limit =
-        |col: &collide::Collider| 0.1 * col.thickness + h * st.max_depenetration_speed;
+    // How deep a vertex may begin the substep inside a collider and still be the step's own
+    // (its contact pushes it out): a tenth of the thickness, what the depenetration speed
+    // moves in the substep, and the rounding of its distance, which the projection of the
+    // substep before left it on the surface to within. Without the rounding a collider of
+    // thickness zero with no depenetration speed allowed no depth at all, and a vertex
+    // resting on it a rounding inside was taken for one put there from outside: the whole
+    // projection after its motion in the substep, millimetres, was credited as input
+    // (adversarial scene 12035: a disc in a shell of thickness zero gained 67 % of its
+    // energy in a step whose balance read a loss).
+    let depth_limit = |col: &collide::Collider, placed: &Placed, start: Vec3A| {
+        0.1 * col.thickness + h * st.max_depenetration_speed + placed.before.rounding(start)
+    };
     let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     let held = live(a.pin_of, n)?
         .iter()
@@ -1366,7 +1377,8 @@ fn project(
             let moving = col.previous != col.shape;
             if pass == Pass::Still
                 && (moving
-                    || col.thickness - placed.before.proximity(start).distance > depth_limit(col))
+                    || col.thickness - placed.before.proximity(start).distance
+                        > depth_limit(col, placed, start))
             {
                 pushes = true;
                 continue;
@@ -1516,6 +1528,65 @@ mod tests {
             "credited {with_still} J with the still sphere, {push_alone} J without (its own \
              projection: {own} J)"
         );
+    }
+
+    /// A vertex that began the substep on a still collider's surface to within the rounding
+    /// of its distance (where the projection of the substep before put it) was not put there
+    /// by anything from outside: its projection at the end is the step's own, not input. With
+    /// a thickness of zero and no depenetration speed the depth allowed at the start was zero,
+    /// so a start a rounding inside counted as a push and the balance credited the whole
+    /// projection after the substep's motion, millimetres (adversarial scene 12035: a disc
+    /// inside a shell of thickness zero gained 67 % of its energy in a step whose balance
+    /// read a loss). The centre vertex of a 5×5 sheet ends 2 mm inside a still sphere of
+    /// thickness zero, having begun the substep a quarter of that rounding inside it, with no
+    /// depenetration speed; a start 1 mm inside (the engine put it there) is still a push.
+    #[test]
+    fn a_start_within_rounding_of_a_still_surface_is_no_push() {
+        use crate::collide::{Collider, Shape};
+        let nx = 5usize;
+        let n = nx * nx;
+        let grid = crate::world::TestGrid::new(nx, 1.0);
+        let centre = 2 * nx + 2;
+        let p = Vec3A::from(grid.positions[centre]);
+        let h = 1.0 / 60.0;
+        let radius = 0.5f32;
+        // the sphere's top 2 mm above the centre vertex (its neighbours, 25 cm away, clear)
+        let ball = Shape::Sphere {
+            center: p - Vec3A::new(0.0, 0.0, radius - 0.002),
+            radius,
+        };
+        let credited = |inside: f32| -> f64 {
+            let mut mem = grid.memory();
+            let mut w = grid.world(&mut mem);
+            // it began the substep `inside` below the top: `x − h v`
+            let start = p + Vec3A::new(0.0, 0.0, 0.002 - inside);
+            let mut v = vec![[0.0f32; 3]; n];
+            v[centre] = ((p - start) / h).into();
+            w.set_velocities(&v).unwrap();
+            let settings = Settings {
+                max_depenetration_speed: 0.0,
+                ..Settings::default()
+            };
+            w.set_settings(settings).unwrap();
+            w.add_collider(Collider::new(ball, 0.0, 0.0)).unwrap();
+            let began = p - Vec3A::from(v[centre]) * h;
+            let depth = -ball.proximity(began).distance;
+            assert!(
+                depth > 0.0 && (inside > 1e-4 || depth <= ball.rounding(began)),
+                "the start is {depth} m inside (rounding {})",
+                ball.rounding(began)
+            );
+            let (a, c, st) = w.stage();
+            let sub = Substep { h, t0: 0.0, t: 1.0 };
+            let (touching, work) = resolve(a, &c, &st, sub).unwrap();
+            assert_eq!(touching, 1);
+            work
+        };
+        let rounding = ball.rounding(p + Vec3A::new(0.0, 0.0, 0.002));
+        let own = credited(0.25 * rounding);
+        assert_eq!(own, 0.0, "a start a rounding inside was credited {own} J");
+        let pushed = credited(1e-3);
+        assert!(pushed > 0.0, "a start 1 mm inside was credited {pushed} J");
     }
 
     /// An impulse split into the normals that hold a vertex: exact for one, two and three
