@@ -874,6 +874,19 @@ struct Outcome {
     first_err_hint: String,
 }
 
+/// The world's energy with its gravitational part measured from the caller's zero instead of
+/// the world's origin (`World::energy`'s, which moves when a step follows the cloth to a new
+/// origin or the scene sets one: a jump of `M g·Δorigin` no step made).
+fn caller_total(w: &World<'_>, e: &weft::world::Energy) -> f64 {
+    let settings = *w.settings();
+    if settings.effects & effects::GRAVITY == 0 {
+        return e.total();
+    }
+    let mass: f64 = w.masses().iter().map(|&m| f64::from(m)).sum();
+    let g = Vec3::from(settings.gravity).as_dvec3();
+    e.total() - mass * g.dot(w.origin())
+}
+
 fn hash_state(w: &World) -> u64 {
     let mut h: u64 = 1469598103934665603;
     for p in w.positions().iter().chain(w.velocities()) {
@@ -1106,7 +1119,7 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
             }
         }
         let e0 = w.energy();
-        let tot0 = e0.total();
+        let tot0 = caller_total(&w, &e0);
         let inplay0 = e0.kinetic + e0.elastic + e0.bending + e0.gravity.abs();
         let before_hash = hash_state(&w);
         let started = Instant::now();
@@ -1149,7 +1162,7 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
                         "  step {step} ok stopped={} it={} solves={} res={:.2e} conv={} sub={} redone={} removed={:.3e} gain={:.3e} contacts={} asleep={} E: k={:.6e} el={:.6e} b={:.6e} g={:.6e} tot {:.9e} -> {:.9e} input={input} vmax={:.3e} t={:.2}ms origin={:?}",
                         s.stopped, s.iterations, s.solves, s.residual, s.converged, s.substeps, s.redone,
                         s.energy_removed, s.energy_gain, s.contacts, s.asleep, e.kinetic, e.elastic,
-                        e.bending, e.gravity, tot0, e.total(),
+                        e.bending, e.gravity, tot0, caller_total(&w, &e),
                         w.velocities().iter().map(|v| v.length()).fold(0.0, f32::max), el * 1e3,
                         w.origin()
                     );
@@ -1193,7 +1206,7 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
             break;
         }
         let e1 = w.energy();
-        let tot1 = e1.total();
+        let tot1 = caller_total(&w, &e1);
         if !input && res.is_ok() {
             let rise = tot1 - tot0;
             let rel = rise / inplay0.max(1e-30);
