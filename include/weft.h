@@ -206,9 +206,10 @@
 
 /**
  * A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
- * of this many metres (`weft_world_get_origin`).
+ * of this many metres (`weft_world_get_origin`); a step moves it once the cloth's centre is
+ * farther than this from it.
  */
-#define WEFT_ORIGIN_GRID 64.0
+#define WEFT_ORIGIN_GRID 4.0
 
 /**
  * `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
@@ -1835,7 +1836,7 @@ uint32_t weft_world_collider_count(const struct WeftWorld *world);
  * `weft_world_transform`, pin targets of every kind, collider shapes, and `weft_localize`'s
  * output) is in your coordinates, converted through double precision, one
  * rounding each way. At create the origin is the centre of the cloth's bounding box rounded
- * to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 32 m of zero, where
+ * to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 2 m of zero, where
  * nothing is converted. A step after which the cloth's centre is more than
  * `WEFT_ORIGIN_GRID` metres from the origin (along any axis) moves it by the same rule, so
  * the origin follows a cloth that travels. Velocities do not depend on it; the gravitational

@@ -1138,8 +1138,9 @@ fn origin_is_chosen_at_create_and_converts_vertex_io() {
         unsafe { weft_world_get_origin(w, &mut o, ptr::null_mut()) },
         WeftResult::Ok
     );
-    assert_eq!((o.x, o.y, o.z), (9984.0, 0.0, 0.0));
-    assert_eq!(WEFT_ORIGIN_GRID, 64.0);
+    // the centre (10000.25, 0.5, 0) to the grid
+    assert_eq!((o.x, o.y, o.z), (10_000.0, 0.0, 0.0));
+    assert_eq!(WEFT_ORIGIN_GRID, 4.0);
     let get = || {
         let mut out = vec![WeftVec3::default(); mesh.positions.len()];
         let n = out.len() as u32;
@@ -1197,11 +1198,12 @@ fn origin_is_chosen_at_create_and_converts_vertex_io() {
         unsafe { weft_world_get_origin(w, &mut o, ptr::null_mut()) },
         WeftResult::Ok
     );
-    assert_eq!((o.x, o.y, o.z), (14_976.0, 0.0, 0.0));
+    assert_eq!((o.x, o.y, o.z), (15_000.0, 0.0, 0.0));
     assert_eq!(teleport(-5_000.0), WeftResult::Ok);
     assert_eq!(get(), mesh.positions);
+    // another origin than the one it chose
     let here = WeftDVec3 {
-        x: 10_000.0,
+        x: 10_016.0,
         y: 0.0,
         z: 0.0,
     };
@@ -1218,7 +1220,7 @@ fn origin_is_chosen_at_create_and_converts_vertex_io() {
         .positions
         .iter()
         .map(|p| WeftVec3 {
-            x: p.x - 10_000.0,
+            x: p.x - 10_016.0,
             ..*p
         })
         .collect();

@@ -199,16 +199,18 @@ fn a_cloth_moving_as_a_whole_stays_whole() {
 }
 
 /// The same cloth sent 2 km away at 400 m/s: the world's origin follows it (a step moves it
-/// once the cloth is more than 64 m from local zero), so its positions keep the resolution
-/// they have at home: 1.5e-3 m/s apart. With the origin left where the cloth was created,
+/// once the cloth is more than `ORIGIN_GRID`, 4 m, from local zero), so its positions keep the
+/// resolution they have at home: 3e-5 m/s apart (1.5e-3 with the 64 m grid of before, where
+/// the cloth could be 64 m from local zero). With the origin left where the cloth was created,
 /// positions 2 km away resolve 1.2e-4 m, a 2.5 cm edge's strain 5e-3, and that noise became
 /// elastic forces: 1.2e-2 m/s apart.
 #[test]
 fn a_cloth_that_travels_far_keeps_its_precision() {
     let c = coast(Vec3A::new(320.0, -120.0, 200.0));
     assert!(c.travelled > 1900.0, "{} m", c.travelled);
+    // (the centre within the grid of local zero after each step, the cloth 0.5 m wide)
     assert!(
-        c.farthest_local < 64.0 + 32.0 + 8.0,
+        c.farthest_local < weft::world::ORIGIN_GRID as f32 + 0.5,
         "{} m from local zero",
         c.farthest_local
     );
@@ -1688,36 +1690,32 @@ fn translated_hanging_cloth(offset: [f32; 3]) -> (Vec<glam::DVec3>, Option<usize
 }
 
 /// At 10 km a cloth behaves as at the origin, with its pins and its collider given in the far
-/// coordinates: it comes to rest and sleeps, and it moves exactly as the same cloth 16 m from
-/// zero, whose local coordinates are the same (10,000 m is 16 m past the origin 9,984 m chosen
-/// for it). Against the cloth at zero the difference is what f32 rounding at 16 m instead of
-/// 1 m does to a scene with sticking contacts (~1.6 mm). (Simulated in absolute f32 the far cloth
-/// never slept: slow vertices' moves were rounded away while their velocities stayed.)
+/// coordinates: it comes to rest and sleeps, and it moves exactly as the same cloth at zero and
+/// 16 m from zero, whose local coordinates are the same (each is given the origin of its own
+/// place on the 4 m grid: 10,000 m, 16 m, zero). With the 64 m grid of before, the cloths at
+/// 16 m and at 10 km (16 m past the origin 9,984 m) were simulated 16 m from local zero and
+/// ended 1.6 mm from the cloth at zero: what `f32` rounding at 16 m instead of 1 m does to a
+/// scene with sticking contacts. (Simulated in absolute `f32` the far cloth never slept: slow
+/// vertices' moves were rounded away while their velocities stayed.)
 #[test]
 fn a_cloth_10_km_away_rests_and_sleeps_as_at_the_origin() {
     let (near, near_asleep, near_origin) = translated_hanging_cloth([0.0; 3]);
     let (near16, near16_asleep, near16_origin) = translated_hanging_cloth([16.0, 0.0, 0.0]);
     let (far, far_asleep, far_origin) = translated_hanging_cloth([10_000.0, 0.0, 0.0]);
     assert_eq!(near_origin, glam::DVec3::ZERO);
-    assert_eq!(near16_origin, glam::DVec3::ZERO);
-    assert_eq!(far_origin, glam::DVec3::new(9984.0, 0.0, 0.0));
-    let diff = near
-        .iter()
-        .zip(&far)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0, f64::max);
-    eprintln!("asleep at {near_asleep:?} / {near16_asleep:?} / {far_asleep:?}, {diff} m apart");
+    assert_eq!(near16_origin, glam::DVec3::new(16.0, 0.0, 0.0));
+    assert_eq!(far_origin, glam::DVec3::new(10_000.0, 0.0, 0.0));
+    eprintln!("asleep at {near_asleep:?} / {near16_asleep:?} / {far_asleep:?}");
     assert!(near_asleep.is_some(), "the cloth at the origin never slept");
     assert!(far_asleep.is_some(), "the cloth 10 km away never slept");
-    assert_eq!(
-        far, near16,
-        "the far cloth moved otherwise than the near one"
-    );
-    assert_eq!(far_asleep, near16_asleep);
-    assert!(
-        diff < 5e-3,
-        "the far cloth ended {diff} m from the one at zero"
-    );
+    for (other, at) in [(&near16, "16 m"), (&far, "10 km")] {
+        assert_eq!(
+            *other, near,
+            "the cloth {at} away moved otherwise than the one at zero"
+        );
+    }
+    assert_eq!(far_asleep, near_asleep);
+    assert_eq!(near16_asleep, near_asleep);
 }
 
 /// `set_origin` re-expresses the world around a new origin and `shift_origin` follows the
@@ -1732,7 +1730,7 @@ fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
     let mats = [anisotropic()];
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings);
-    assert_eq!(w.origin(), DVec3::new(9984.0, -3008.0, 192.0));
+    assert_eq!(w.origin(), DVec3::new(10_000.0, -3000.0, 200.0));
     let centre = [10_000.5, -2999.75, 200.5];
     let sphere = Shape::Sphere {
         center: Vec3A::from(centre),
@@ -1760,21 +1758,21 @@ fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
         assert_eq!(f.p.to_array(), *p, "frames are in the caller's coordinates");
     }
     let local = w.to_local(centre);
-    assert_eq!(local, Vec3A::new(16.5, 8.25, 8.5));
+    assert_eq!(local, Vec3A::new(0.5, 0.25, 0.5));
     assert!(
         matches!(w.collider(0).unwrap().shape, Shape::Sphere { center, .. } if center == local)
     );
 
-    w.set_origin(DVec3::new(10_000.0, -3000.0, 200.0)).unwrap();
+    w.set_origin(DVec3::new(9984.0, -3008.0, 192.0)).unwrap();
     assert!(close(&before, &seen(&w), 0.0), "set_origin moved the cloth");
     let Shape::Sphere { center, .. } = w.collider(0).unwrap().shape else {
         panic!("not a sphere")
     };
-    assert_eq!(center, Vec3A::new(0.5, 0.25, 0.5));
+    assert_eq!(center, Vec3A::new(16.5, 8.25, 8.5));
     let kept = w.positions().to_vec();
     w.shift_origin(DVec3::new(10_000.0, 0.0, 0.0)).unwrap();
     assert_eq!(w.positions(), &kept[..], "shift_origin moved the world");
-    assert_eq!(w.origin(), DVec3::new(0.0, -3000.0, 200.0));
+    assert_eq!(w.origin(), DVec3::new(-16.0, -3008.0, 192.0));
     assert!(close(&before, &seen(&w), 10_000.0));
     assert_eq!(
         w.set_origin(DVec3::NAN),
@@ -1784,7 +1782,7 @@ fn set_and_shift_origin_keep_the_cloth_where_the_caller_sees_it() {
         w.shift_origin(DVec3::INFINITY),
         Err(weft::world::EditError::NonFinite)
     );
-    assert_eq!(w.origin(), DVec3::new(0.0, -3000.0, 200.0));
+    assert_eq!(w.origin(), DVec3::new(-16.0, -3008.0, 192.0));
     w.step().unwrap();
 }
 

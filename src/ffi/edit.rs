@@ -882,7 +882,7 @@ pub unsafe extern "C" fn weft_world_collider_count(world: *const WeftWorld) -> u
 /// `weft_world_transform`, pin targets of every kind, collider shapes, and `weft_localize`'s
 /// output) is in your coordinates, converted through double precision, one
 /// rounding each way. At create the origin is the centre of the cloth's bounding box rounded
-/// to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 32 m of zero, where
+/// to a multiple of `WEFT_ORIGIN_GRID` metres: zero for any cloth within 2 m of zero, where
 /// nothing is converted. A step after which the cloth's centre is more than
 /// `WEFT_ORIGIN_GRID` metres from the origin (along any axis) moves it by the same rule, so
 /// the origin follows a cloth that travels. Velocities do not depend on it; the gravitational

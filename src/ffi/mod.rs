@@ -130,8 +130,9 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_573_104;
 
 /// A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
-/// of this many metres (`weft_world_get_origin`).
-pub const WEFT_ORIGIN_GRID: f64 = 64.0;
+/// of this many metres (`weft_world_get_origin`); a step moves it once the cloth's centre is
+/// farther than this from it.
+pub const WEFT_ORIGIN_GRID: f64 = 4.0;
 
 /// `strain_measure` of `weft_localize_prepare`: each coarse triangle's deformation gradient is
 /// split into rotation and stretch (F = R U, polar decomposition); the macro strain is U - I

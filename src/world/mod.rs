@@ -24,9 +24,9 @@
 //! own arrays, [`World::positions`] and [`World::collider`], are in local coordinates;
 //! [`World::to_world`] turns a local point into the caller's (the C API's getters do), and
 //! localization's frames ([`crate::localize::prepare`]) are in the caller's coordinates. For a
-//! cloth created within `ORIGIN_GRID / 2` (32 m) of the caller's zero the origin is zero and the
+//! cloth created within `ORIGIN_GRID / 2` (2 m) of the caller's zero the origin is zero and the
 //! two coordinates are the same, bit for bit, until the cloth travels more than `ORIGIN_GRID`
-//! (64 m) from it: then a step moves the origin after it (`World::follow_cloth`), so a caller
+//! (4 m) from it: then a step moves the origin after it (`World::follow_cloth`), so a caller
 //! that reads local positions reads `origin()` with them.
 
 mod build;
@@ -948,8 +948,8 @@ impl<'a> World<'a> {
     }
 
     /// After a step: a cloth whose bounding box's centre has travelled more than
-    /// [`ORIGIN_GRID`] (64 m, along any axis) from local zero gets the origin creation would
-    /// give it there (the centre rounded to the grid: within 32 m). An `f32` position 2 km away
+    /// [`ORIGIN_GRID`] (4 m, along any axis) from local zero gets the origin creation would
+    /// give it there (the centre rounded to the grid: within 2 m). An `f32` position 2 km away
     /// is resolved to 1.2e-4 m, and a 5 cm triangle's strain to 2e-3: noise of which the
     /// elastic forces and the energy balance's floor are made (an adversarial scene's cloth
     /// that had drifted 180 m read 0.7 J of round-off in a 1 J state, and its balance was
