@@ -1019,6 +1019,16 @@ fn run_scene(sc: &Scene, blob: &Blob, trace: bool) -> Outcome {
                 }
                 Event::Settings(s) => {
                     if w.set_settings(*s).is_ok() {
+                        // Pins switched on start where their vertices are and move to their
+                        // targets over the next step: input (seed 6001's pins, off since its
+                        // start, were switched on metres from their targets).
+                        let pins_on = |e: u32| e & effects::PINS != 0;
+                        if pins_on(s.effects)
+                            && !pins_on(settings.effects)
+                            && pins_live.iter().any(|&live| live)
+                        {
+                            input = true;
+                        }
                         settings = *s;
                     }
                 }
