@@ -372,6 +372,15 @@ impl<'c> Placed<'c> {
         self.uniform_velocity
             .unwrap_or_else(|| self.after.surface_velocity(&self.before, p, h))
     }
+
+    /// How far across the offset surface a point at `p` may be and still be where the step
+    /// itself put it: a tenth of the thickness, `extra`, and the rounding of its distance
+    /// (`Shape::rounding`), to which a projection puts a point on the surface. The contact
+    /// slop ([`Scene::slop`]) and the depth a substep may begin at inside a collider without
+    /// counting as a push ([`project`]).
+    fn allowance(&self, p: Vec3A, extra: f32) -> f32 {
+        self.col.thickness * 0.1 + extra + self.before.rounding(p)
+    }
 }
 
 /// Colliders placed beforehand, this many at most (a world usually has a few); the others
@@ -617,7 +626,7 @@ impl Scene<'_> {
     /// still be held ([`Scene::touch`]): a tenth of the thickness, how far gravity moves it in
     /// the substep, and the rounding of its distance (`Shape::rounding`).
     fn slop(&self, placed: &Placed, p: Vec3A) -> f32 {
-        placed.col.thickness * 0.1 + self.slop_fall + placed.before.rounding(p)
+        placed.allowance(p, self.slop_fall)
     }
 
     fn edge_touches<'a>(
@@ -1291,17 +1300,13 @@ fn project(
     let mut pushes_left = false;
     let (mut contacts, mut work) = (0u32, 0.0f64);
     // How deep a vertex may begin the substep inside a collider and still be the step's own
-    // (its contact pushes it out): a tenth of the thickness, what the depenetration speed
-    // moves in the substep, and the rounding of its distance, which the projection of the
-    // substep before left it on the surface to within. Without the rounding a collider of
-    // thickness zero with no depenetration speed allowed no depth at all, and a vertex
-    // resting on it a rounding inside was taken for one put there from outside: the whole
-    // projection after its motion in the substep, millimetres, was credited as input
-    // (adversarial scene 12035: a disc in a shell of thickness zero gained 67 % of its
-    // energy in a step whose balance read a loss).
-    let depth_limit = |col: &collide::Collider, placed: &Placed, start: Vec3A| {
-        0.1 * col.thickness + h * st.max_depenetration_speed + placed.before.rounding(start)
-    };
+    // (its contact pushes it out): `Placed::allowance` with what the depenetration speed moves
+    // in the substep. Without the allowance's rounding a collider of thickness zero with no
+    // depenetration speed allowed no depth at all, and a vertex resting on it a rounding
+    // inside was taken for one put there from outside: the whole projection after its motion
+    // in the substep, millimetres, was credited as input (adversarial scene 12035: a disc in a
+    // shell of thickness zero gained 67 % of its energy in a step whose balance read a loss).
+    let depenetration = h * st.max_depenetration_speed;
     let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
     let held = live(a.pin_of, n)?
         .iter()
@@ -1395,7 +1400,7 @@ fn project(
             if pass == Pass::Still
                 && (moving
                     || col.thickness - placed.before.proximity(start).distance
-                        > depth_limit(col, placed, start))
+                        > placed.allowance(start, depenetration))
             {
                 pushes = true;
                 continue;
