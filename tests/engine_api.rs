@@ -447,11 +447,10 @@ fn a_rigid_teleport_keeps_shape_energy_and_motion() {
     }
     let r = glam::Mat3A::from_quat(q);
     // in the caller's coordinates: the teleport chose b an origin near where it landed
-    for ((xa, xb), (va, vb)) in a
-        .positions()
-        .iter()
-        .map(|&x| Vec3A::from(a.to_world(x)))
-        .zip(b.positions().iter().map(|&x| Vec3A::from(b.to_world(x))))
+    for ((xa, xb), (va, vb)) in caller_positions(&a)
+        .into_iter()
+        .map(Vec3A::from)
+        .zip(caller_positions(&b).into_iter().map(Vec3A::from))
         .zip(a.velocities().iter().zip(b.velocities()))
     {
         assert!((r * xa + Vec3A::from(t) - xb).length() < 1e-4, "{xa} {xb}");
@@ -512,8 +511,6 @@ fn engine_calls_work_10_km_from_zero() {
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mat, rail_settings());
     assert!(w.origin().length() > 11_000.0, "{}", w.origin());
-    let caller =
-        |w: &World<'_>| -> Vec<[f32; 3]> { w.positions().iter().map(|&x| w.to_world(x)).collect() };
     let f64s = |p: [f32; 3]| DVec3::from(p.map(f64::from));
 
     // a range in and out
@@ -523,7 +520,7 @@ fn engine_calls_work_10_km_from_zero() {
         .collect();
     w.set_positions_range(5, &Strided::from_slice(&moved))
         .unwrap();
-    let now = caller(&w);
+    let now = caller_positions(&w);
     assert_eq!(now[5..9], moved[..]);
     assert_eq!(now[..5], sheet.positions[..5]);
     assert_eq!(now[9..], sheet.positions[9..]);
@@ -532,7 +529,7 @@ fn engine_calls_work_10_km_from_zero() {
     // a teleport: 0.4 rad about the caller's z axis, then kilometres away
     let (q, t) = (Quat::from_rotation_z(0.4), [-2_500.0f32, 1_000.0, 3.0]);
     let r = DMat3::from_quat(q.as_dquat());
-    let expected: Vec<DVec3> = caller(&w)
+    let expected: Vec<DVec3> = caller_positions(&w)
         .into_iter()
         .map(|p| r * f64s(p) + f64s(t))
         .collect();
@@ -541,7 +538,7 @@ fn engine_calls_work_10_km_from_zero() {
     for (l0, l1) in lengths.iter().zip(edge_lengths(&w)) {
         assert!((l1 - l0).abs() < 1e-5, "{l0} -> {l1}");
     }
-    for (p, e) in caller(&w).into_iter().zip(&expected) {
+    for (p, e) in caller_positions(&w).into_iter().zip(&expected) {
         // (one rounding to the caller's f32: half an ulp at 11 km is 4.9e-4 m)
         assert!((f64s(p) - *e).length() < 1e-3, "{p:?} {e}");
     }
@@ -556,7 +553,7 @@ fn engine_calls_work_10_km_from_zero() {
     // a pin in the plane through a top vertex, normal (0, 1, 1): the cloth slides in it
     let n = Vec3A::new(0.0, 1.0, 1.0).normalize();
     let top = sheet.index(2, sheet.ny - 1);
-    let target = caller(&w)[top as usize];
+    let target = caller_positions(&w)[top as usize];
     let axes = PinAxes::Plane {
         normal: n.to_array(),
     };
@@ -567,7 +564,7 @@ fn engine_calls_work_10_km_from_zero() {
         let x = w.positions()[top as usize];
         assert!((x - w.to_local(target)).dot(n).abs() < 1e-5, "{x}");
     }
-    let slid = f64s(caller(&w)[top as usize]) - f64s(target);
+    let slid = f64s(caller_positions(&w)[top as usize]) - f64s(target);
     assert!(slid.z < -0.01, "{slid}");
     assert!(slid.dot(n.as_dvec3()).abs() < 1e-3, "{slid}");
 }

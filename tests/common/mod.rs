@@ -119,6 +119,12 @@ pub fn world<'a>(
     .unwrap()
 }
 
+/// The cloth's positions in the caller's coordinates (`World::positions` lends the local ones,
+/// relative to the world's origin).
+pub fn caller_positions(w: &World<'_>) -> Vec<[f32; 3]> {
+    w.positions().iter().map(|&x| w.to_world(x)).collect()
+}
+
 /// The fastest vertex's speed (m/s).
 pub fn top_speed(w: &World<'_>) -> f32 {
     w.velocities()
