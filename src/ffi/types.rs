@@ -252,9 +252,10 @@ pub struct WeftStepStats {
     /// Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
     pub energy_removed: f32,
     /// 1 when even the redos gained more energy than the kinetic energy could give back, so
-    /// the world held the cloth still for this step instead: positions as at its start,
-    /// velocities zero (`energy_removed` is the kinetic energy it had), pins moving to their
-    /// targets over the next step; else 0.
+    /// the world held the cloth still for this step instead: positions as at its start, but
+    /// the pinned vertices on their targets and every other vertex put out of the colliders
+    /// (as they are at the end of the step), velocities zero (`energy_removed` is the kinetic
+    /// energy it had); else 0.
     pub stopped: u32,
 }
 

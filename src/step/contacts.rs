@@ -1466,6 +1466,33 @@ pub(crate) fn place_pins(a: &mut Arrays<'_>, c: &Counts, t: f32) -> Result<(), S
     Ok(())
 }
 
+/// Puts every free vertex out of every collider, where the colliders are at the end of the
+/// step: what each substep's projection does, for a cloth held still (`World::stop`), whose
+/// vertices keep no velocity. Pinned vertices are left to their pins, and a vertex inside two
+/// colliders ends outside the later one, as in the projection. Returns whether any moved.
+pub(crate) fn place_outside(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+) -> Result<bool, StepError> {
+    if !collide_on(c, st) {
+        return Ok(false);
+    }
+    let pins = pins_on(c, st);
+    let colliders = live(a.colliders, c.colliders)?;
+    let mut moved = false;
+    for (xi, &pin) in live_mut(a.x, c.n)?.iter_mut().zip(live(a.pin_of, c.n)?) {
+        if pins && pin != mesh::NONE {
+            continue;
+        }
+        for col in colliders {
+            let mut v = Vec3A::ZERO;
+            moved |= collide::resolve(&col.shape, Vec3A::ZERO, col.thickness, 0.0, xi, &mut v);
+        }
+    }
+    Ok(moved)
+}
+
 /// Every pin as `(vertex, previous target, target, free directions)`: the target moves from
 /// the previous one to the current one over the step.
 ///

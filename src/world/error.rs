@@ -111,10 +111,11 @@ pub struct StepStats {
     /// input, before any removal. ≤ 0 for a step that dissipates.
     pub energy_gain: f32,
     /// Even redone with 8× the substeps (up to 32× while its gain kept halving), the step
-    /// gained more energy than its kinetic energy
-    /// could give back, so the world held the cloth still instead: positions as at the start
-    /// of the step, velocities zero (`energy_removed` is the kinetic energy it had); its pins
-    /// move to their targets over the next step. The next step starts from rest.
+    /// gained more energy than its kinetic energy could give back, so the world held the cloth
+    /// still instead: positions as at the start of the step, but the pinned vertices on their
+    /// targets and every other vertex put out of the colliders (as a substep's projection
+    /// does, where the colliders are at the end of the step), velocities zero
+    /// (`energy_removed` is the kinetic energy it had). The next step starts from rest.
     pub stopped: bool,
 }
 

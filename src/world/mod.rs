@@ -1173,21 +1173,30 @@ impl<'a> World<'a> {
     /// The step's last resort, when even its redos gain more than their kinetic energy can
     /// give back (a flat cloth kicked out of its plane stretches in one linearized substep,
     /// and the stretch shrinks only as h⁴; a solve that cannot converge in `f32`): the cloth
-    /// is held still for this step, where it started, with no velocity, and its pinned
-    /// vertices are put on their targets (what the pins do is input, the rest stands still).
-    /// That state holds less energy than the start plus the pins' work by the kinetic
-    /// energy, so it always balances, and the next step starts from rest. Refusing the step
-    /// instead kept the start state, from which the next call failed the same way: an
-    /// outside fuzzer saw such cloths refused at every later step, frozen. (Leaving the pins
-    /// behind too made the next step's pin motion, and its failure, grow at every step.)
+    /// is held still for this step, where it started, with no velocity, but with what holds
+    /// it done: its pinned vertices are put on their targets, and every other vertex out of
+    /// the colliders, where they are at the end of the step, as each substep's projection
+    /// does (what pins and colliders do is input, the rest stands still). That state holds
+    /// less energy than the start plus that input by the kinetic energy, so it always
+    /// balances, and the next step starts from rest. Refusing the step instead kept the start
+    /// state, from which the next call failed the same way: an outside fuzzer saw such cloths
+    /// refused at every later step, frozen. Leaving the pins behind made the next step's pin
+    /// motion, and its failure, grow at every step; leaving a vertex inside a collider (the
+    /// engine put it there, or a collider moved or appeared around it) left the next step the
+    /// same push out of it to fail on, from the same state: a stiff strip pinned at a vertex
+    /// inside a sphere was held still at every step, its other vertices inside for good
+    /// (adversarial scene 16049: all 300 of its steps; `tests/hard_cases.rs`).
     fn stop(&mut self, pins_on: bool, stats: StepStats) -> Result<StepStats, StepError> {
         self.restore_start(false);
         let counts = self.counts();
         let v = prefix_mut(self.a.v, self.n);
         let kinetic = monitor::kinetic(prefix(self.a.mass, self.n), v);
         v.fill(Vec3A::ZERO);
+        let outside = step::contacts::place_outside(&mut self.a, &counts, &self.settings)?;
         if pins_on {
             step::contacts::place_pins(&mut self.a, &counts, 1.0)?;
+        }
+        if pins_on || outside {
             self.refresh_frames(8);
         }
         self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
