@@ -1093,7 +1093,7 @@ fn a_cloth_held_still_inside_a_collider_is_put_out_of_it_and_goes_on() {
             .iter()
             .enumerate()
             .filter(|&(i, _)| i != b as usize)
-            .map(|(_, &x)| (x - center).length() - radius)
+            .map(|(_, &x)| sphere.proximity(x).distance)
             .fold(f32::INFINITY, f32::min);
         assert!(
             deepest > -1e-5,

@@ -381,6 +381,17 @@ impl<'c> Placed<'c> {
     fn allowance(&self, p: Vec3A, extra: f32) -> f32 {
         self.col.thickness * 0.1 + extra + self.before.rounding(p)
     }
+
+    /// Whether a point at `p` is deeper across the offset surface than [`Placed::allowance`]
+    /// lets the step itself put it (something else did: a push from outside): the surface's
+    /// normal there and the depth beyond the allowance. The projection's test of where a
+    /// vertex began the substep ([`project`]) and the push credit's ([`constraint_work`]).
+    fn beyond_allowance(&self, p: Vec3A, extra: f32) -> Option<(Vec3A, f32)> {
+        let prox = self.before.proximity(p);
+        let depth = self.col.thickness - prox.distance;
+        let allowed = self.allowance(p, extra);
+        (depth > allowed).then_some((prox.normal, depth - allowed))
+    }
 }
 
 /// Colliders placed beforehand, this many at most (a world usually has a few); the others
@@ -1247,10 +1258,8 @@ pub(crate) fn constraint_work(
             let k = collider_of(contact);
             let Some((normal, depth)) = colliders.get(k).and_then(|col| {
                 let mut spare = None;
-                let placed = sweep.placed(k, col, &mut spare);
-                let prox = placed.before.proximity(x);
-                let depth = col.thickness - prox.distance - placed.allowance(x, 0.0);
-                (impulse.dot(prox.normal) > 0.0 && depth > 0.0).then_some((prox.normal, depth))
+                let (normal, depth) = sweep.placed(k, col, &mut spare).beyond_allowance(x, 0.0)?;
+                (impulse.dot(normal) > 0.0).then_some((normal, depth))
             }) else {
                 continue;
             };
@@ -1435,9 +1444,7 @@ fn project(
             }
             let moving = col.previous != col.shape;
             if pass == Pass::Still
-                && (moving
-                    || col.thickness - placed.before.proximity(start).distance
-                        > placed.allowance(start, depenetration))
+                && (moving || placed.beyond_allowance(start, depenetration).is_some())
             {
                 pushes = true;
                 continue;
