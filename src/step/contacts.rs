@@ -964,13 +964,22 @@ fn engage_reaching(
 ) -> Result<u32, StepError> {
     let n = c.n;
     let pins = pins_on(c, st);
-    // Edge and face tests (and the longest edge they need) only for a vertex that those
-    // contacts alone hold, which is rare.
-    let colliders = live(a.colliders, c.colliders)?.len();
-    let edge_held = live(lent.contact, n)?
-        .iter()
-        .zip(live(lent.filter, n)?)
-        .any(|(&contact, &filter)| filter != Mat3A::IDENTITY && collider_of(contact) >= colliders);
+    // A vertex that only the contacts of edges or faces around it hold: held, but by no
+    // contact of its own. Only a sphere or a capsule makes such contacts, and the edge and
+    // face tests (and the longest edge they need) are made only when such a vertex exists,
+    // which is rare.
+    let colliders = live(a.colliders, c.colliders)?;
+    let by_edges_alone = |contact: u32, filter: &Mat3A| {
+        *filter != Mat3A::IDENTITY && collider_of(contact) >= colliders.len()
+    };
+    let edge_held = colliders.iter().any(|col| col.shape.between_vertices())
+        && live(lent.contact, n)?
+            .iter()
+            .zip(live(lent.filter, n)?)
+            .zip(live(a.pin_of, n)?)
+            .any(|((&contact, filter), &pin)| {
+                !(pins && pin != mesh::NONE) && by_edges_alone(contact, filter)
+            });
     let scene = scene(a, c, st, sub, edge_held)?;
     let list: &mut [u32] = bytemuck::cast_slice_mut(live_mut(lent.list, n)?);
     let (just_released, rest) = list.split_at_mut((listed as usize).min(n));
@@ -984,13 +993,12 @@ fn engage_reaching(
         if pins && pin != mesh::NONE {
             continue;
         }
-        if *filter != Mat3A::IDENTITY && collider_of(*contact) < colliders {
-            continue;
-        }
         let mut hold = if *filter == Mat3A::IDENTITY {
             Hold::default()
-        } else {
+        } else if by_edges_alone(*contact, filter) {
             scene.hold(i, has_flag(*contact, STRICT), dropped)
+        } else {
+            continue;
         };
         let before = hold.held.contacts;
         hold.held.start = vi;
