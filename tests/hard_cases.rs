@@ -1052,6 +1052,53 @@ fn a_push_in_the_plane_is_credited_what_the_implicit_step_puts_in() {
 /// +9 J in a step, and the strip was held still at every step from the 17th on.)
 #[test]
 fn a_cloth_held_still_inside_a_collider_is_put_out_of_it_and_goes_on() {
+    let center = Vec3A::new(0.25, 0.05, -0.1);
+    let sphere = Shape::Sphere {
+        center,
+        radius: 0.2,
+    };
+    let (held, worst) = strip_pinned_inside(8, 2, sphere, 0.3, 0.0);
+    assert!(held <= 1, "held still {held} steps, {worst} in a row");
+}
+
+/// A vertex held by the contacts of the edges around it and caught by its own contact
+/// (`contacts::engage`) is held along its own normal, and the edges' contacts ride on it: the
+/// other way round its own contact rode on an edge's axis a few degrees off its normal, the
+/// solve slid it along that axis's plane into the sphere, and the projection put it back
+/// against the whole tension, a gain at every substep count. The strip of the test above,
+/// pinned at its border 4 cm inside a 10 cm sphere of friction 1: the pin's neighbour on the
+/// border (index (5, 0)) had its own contact ride 5–8° off at every attempt, and the strip was
+/// held still at every step from the 8th on (adversarial scene 16049 froze so after a move of
+/// its origin: 211 steps in a row).
+#[test]
+fn a_strip_resting_on_a_sphere_beside_a_pin_inside_it_is_not_held_still() {
+    let sheet = Sheet::grid(24, 6, 0.5, 0.1);
+    let pinned = Vec3A::from(sheet.positions[sheet.index(4, 0) as usize]);
+    let radius = 0.1;
+    let sphere = Shape::Sphere {
+        center: pinned - Vec3A::new(0.0, 0.0, radius - 0.04),
+        radius,
+    };
+    let (held, worst) = strip_pinned_inside(4, 0, sphere, 1.0, 1e-4);
+    assert!(
+        held <= 2 && worst <= 1,
+        "held still {held} steps, {worst} in a row"
+    );
+}
+
+/// A stiff anisotropic strip (24 × 6 vertices, 0.5 m × 0.1 m, 120 kN/m along it), gravity
+/// off, at rest through a still `sphere` the engine put under it, pinned at one end and at
+/// vertex `(i, j)` inside the sphere (the pin wins: the sphere pushes that vertex's neighbours
+/// out around it at up to 40 m/s). Steps it 60 times, asserting that no free vertex is inside
+/// the sphere after any step and that the energy never rises after the first (whose start
+/// inside the sphere is input). Returns the steps held still, and the most in a row.
+fn strip_pinned_inside(
+    i: usize,
+    j: usize,
+    sphere: Shape,
+    friction: f32,
+    thickness: f32,
+) -> (u32, u32) {
     let sheet = Sheet::grid(24, 6, 0.5, 0.1);
     let stiff = Material {
         stiffness: [[1.2e5, 2e4, 0.0], [2e4, 3e4, 0.0], [0.0, 0.0, 2e4]],
@@ -1067,15 +1114,12 @@ fn a_cloth_held_still_inside_a_collider_is_put_out_of_it_and_goes_on() {
         ..Settings::default()
     };
     let mut w = world(&mut mem, &sheet, &mats, settings);
-    let (a, b) = (sheet.index(0, 2), sheet.index(8, 2));
+    let (a, b) = (sheet.index(0, 2), sheet.index(i, j));
     w.set_pin(a, sheet.positions[a as usize]).unwrap();
     w.set_pin(b, sheet.positions[b as usize]).unwrap();
-    let center = Vec3A::new(0.25, 0.05, -0.1);
-    let radius = 0.2;
-    let sphere = Shape::Sphere { center, radius };
-    w.add_collider(Collider::new(sphere, 0.3, 0.0)).unwrap();
+    w.add_collider(Collider::new(sphere, friction, thickness))
+        .unwrap();
     let (mut held, mut in_a_row, mut worst) = (0, 0, 0);
-    // the first step's start is inside the sphere (input); from its end on, nothing is
     let mut previous = f64::INFINITY;
     for step in 0..60 {
         let s = w.step().unwrap_or_else(|e| panic!("step {step}: {e:?}"));
@@ -1092,13 +1136,13 @@ fn a_cloth_held_still_inside_a_collider_is_put_out_of_it_and_goes_on() {
             .positions()
             .iter()
             .enumerate()
-            .filter(|&(i, _)| i != b as usize)
-            .map(|(_, &x)| sphere.proximity(x).distance)
+            .filter(|&(k, _)| k != b as usize)
+            .map(|(_, &x)| sphere.proximity(x).distance - thickness)
             .fold(f32::INFINITY, f32::min);
         assert!(
             deepest > -1e-5,
             "step {step}: a vertex {deepest} m inside ({s:?})"
         );
     }
-    assert!(held <= 1, "held still {held} steps, {worst} in a row");
+    (held, worst)
 }

@@ -547,7 +547,17 @@ impl Scene<'_> {
     fn hold(&self, i: usize, strict: bool, dropped: u32) -> Hold {
         let mut hold = Hold::default();
         hold.held.start = self.v.get(i).copied().unwrap_or(Vec3A::ZERO);
-        let mut deepest = f32::INFINITY;
+        self.hold_onto(hold, i, strict, dropped)
+    }
+
+    /// [`Scene::hold`] added to `hold`, whose contacts come first (the axes are made in the
+    /// order the normals come) and keep its primary contact, if it has one.
+    fn hold_onto(&self, mut hold: Hold, i: usize, strict: bool, dropped: u32) -> Hold {
+        let mut deepest = if hold.primary.is_some() {
+            f32::NEG_INFINITY
+        } else {
+            f32::INFINITY
+        };
         // Computed at the first sphere or capsule with edge and face tests, once per vertex
         // (planes and shells have none).
         let mut reach = None;
@@ -912,8 +922,8 @@ pub(crate) fn release(
 /// [`release`] let go there (which it leaves free: they were just let go for pulling).
 /// A vertex held only by the contacts of edges or faces around it, with no contact of its
 /// own, counts as free here: those contacts hold it along their normals, and its free
-/// directions carry it into the collider as well. Its hold is made again with its own
-/// contacts added. Skipped, it was carried in and projected out at every substep: a strip
+/// directions carry it into the collider as well. Its hold is made again, its own contacts
+/// first (their normals are its first axes, below). Skipped, it was carried in and projected out at every substep: a strip
 /// resting on a sphere beside a vertex pinned inside it (the edges to the pin cut through the
 /// sphere) had three such vertices carried ~0.1 mm in and put back against 28 kN, +9 J in a
 /// step from rest, which the balance refused, so the strip was held still at every step once
@@ -993,14 +1003,11 @@ fn engage_reaching(
         if pins && pin != mesh::NONE {
             continue;
         }
-        let mut hold = if *filter == Mat3A::IDENTITY {
-            Hold::default()
-        } else if by_edges_alone(*contact, filter) {
-            scene.hold(i, has_flag(*contact, STRICT), dropped)
-        } else {
+        let edges_alone = by_edges_alone(*contact, filter);
+        if !(*filter == Mat3A::IDENTITY || edges_alone) {
             continue;
-        };
-        let before = hold.held.contacts;
+        }
+        let mut hold = Hold::default();
         hold.held.start = vi;
         let mut deepest = f32::INFINITY;
         let mut spare = None;
@@ -1009,18 +1016,26 @@ fn engage_reaching(
             let Some(touch) = scene.end_touch(placed, xi, vi + *dv) else {
                 continue;
             };
-            if hold.add(&touch, 0) && touch.depth < deepest {
+            hold.held.add(touch.normal, touch.target, touch.vs);
+            if touch.depth < deepest {
                 deepest = touch.depth;
                 hold.primary = Some((k, touch.vs));
             }
         }
         // `release` lists its vertices in ascending order: a search, not a scan per vertex
         // (a scan made many catches among many releases quadratic)
-        if hold.held.count == 0
-            || hold.held.contacts == before
-            || just_released.binary_search(&(i as u32)).is_ok()
-        {
+        if hold.held.count == 0 || just_released.binary_search(&(i as u32)).is_ok() {
             continue;
+        }
+        // The vertex's own contacts are its first axes, and the edges' and faces' ride on
+        // them where nearly parallel (`Held::add`): the other way round its own contact rode
+        // on an edge's axis up to ~12° off its normal, and the solve slid it along that
+        // axis's plane into the collider (a strip resting on a sphere beside a vertex pinned
+        // inside it: 3.8 mm along it, 0.5 mm in, projected back against the tension, +35 J
+        // in a step from rest, refused at every step). They have no bit in a dropped set
+        // (`release` makes the hold again from the scene's contacts alone).
+        if edges_alone {
+            hold = scene.hold_onto(hold, i, has_flag(*contact, STRICT), dropped);
         }
         *contact = hold.state(*contact);
         hold.prescribe(*contact, vi, filter, dv);
