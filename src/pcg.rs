@@ -517,9 +517,9 @@ fn run<F: Filter>(
     // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`. (`restart` forms `r` the same way from its
     // own product: with the caller's, the same bits.)
     let mut delta = if product_given {
-        start(precond, f, r, c, q, s)
+        start(precond, f, r, c, q, s, ROUNDING * delta0)
     } else {
-        restart(a, precond, f, b, x, r, c, q, s)
+        restart(a, precond, f, b, x, r, c, q, s, ROUNDING * delta0)
     };
     // Where the absolute floor decides (`tol² δ₀ ≤ floor`: the right-hand side is so small
     // that the relative test would ask for less than the floor), a warm start that is worse
@@ -542,7 +542,7 @@ fn run<F: Filter>(
             for (i, (ri, &qi)) in r.iter_mut().zip(q.iter()).enumerate() {
                 *ri += f.at(i, qi);
             }
-            delta = start(precond, f, r, c, q, s);
+            delta = start(precond, f, r, c, q, s, ROUNDING * delta0);
         }
     }
     if !delta0.is_finite() || !delta.is_finite() || delta < 0.0 {
@@ -631,7 +631,7 @@ fn run<F: Filter>(
             // 8e4 m/s from forces of 8e-3 N·s. One product per solve, kept in q for the
             // caller.
             delta = if grew {
-                restart(a, precond, f, b, x, r, c, q, s)
+                restart(a, precond, f, b, x, r, c, q, s, ROUNDING * reference)
             } else if confirmed(a, f, b, x, r, q, delta_new, threshold) {
                 stats.product_kept = true;
                 break;
@@ -639,7 +639,7 @@ fn run<F: Filter>(
                 for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
                     *ri = f.at(i, bi - qi);
                 }
-                start(precond, f, r, c, q, s)
+                start(precond, f, r, c, q, s, ROUNDING * reference)
             };
             // Residual replacement (the guard's, or a claim the true residual did not
             // confirm): CG afresh from the true residual of x, whose stats a stop reports. At
@@ -675,7 +675,7 @@ fn run<F: Filter>(
         keep_prescribed(f, x);
     }
     if dropped || drifted {
-        let delta = restart(a, precond, f, b, x, r, c, q, s);
+        let delta = restart(a, precond, f, b, x, r, c, q, s, ROUNDING * reference);
         if !delta.is_finite() || delta < 0.0 {
             return Err(PcgError::Breakdown);
         }
@@ -800,16 +800,69 @@ fn restart<F: Filter>(
     c: &mut [Vec3A],
     q: &mut [Vec3A],
     s: &mut [Vec3A],
+    zero: f64,
 ) -> f64 {
     a.apply(x, r);
     for (i, (ri, &bi)) in r.iter_mut().zip(b.iter()).enumerate() {
         *ri = f.at(i, bi - *ri);
     }
-    start(precond, f, r, c, q, s)
+    start(precond, f, r, c, q, s, zero)
 }
 
+/// `f32::EPSILON²`: a `δ` (a squared residual) below zero by no more than this times the
+/// solve's reference is a relative residual that `f32` cannot resolve ([`start`]).
+const ROUNDING: f64 = (f32::EPSILON as f64) * (f32::EPSILON as f64);
+
 /// CG's start from the residual `r`: `c = S P r`; returns `δ = rᵀ c`. `s` and `q` are scratch.
+///
+/// `δ` is not negative for an SPD preconditioner when `r` lies in the filter's range, but a
+/// filtered `r` lies there only to `f32` rounding, and where the constraints carry large
+/// impulses (`b − A x` nearly along a held normal) the filtered rest is itself of the size of
+/// that rounding: at a warm start that already solves the system, `rᵀ S P r` then comes out
+/// below zero as often as not. Measured in the World: a crushed disc whose every call failed
+/// with `SolverBreakdown` (adversarial scene 14062, from its 105th step on: `δ = −6e-15`
+/// against `δ₀ = 1e-8`; a failed step keeps its start and its warm start, so the next call
+/// failed the same way). So a negative `δ` filters `r` once more (its part outside the range
+/// shrinks to the rounding of a rounding) and is taken again; one still below zero by no more
+/// than the rounding of its `f32` dot products (a few `ε` of `Σ |rᵢ|·|cᵢ|`) or than `zero`
+/// (the caller's [`ROUNDING`] of its reference: a relative residual below `ε`) is zero, a
+/// solve at `f32`'s floor; one further below is a preconditioner that is not positive
+/// definite, left negative for the caller's breakdown test. The usual path (`δ ≥ 0`) is
+/// unchanged.
 fn start<F: Filter>(
+    precond: &mut impl Preconditioner,
+    f: &F,
+    r: &mut [Vec3A],
+    c: &mut [Vec3A],
+    q: &mut [Vec3A],
+    s: &mut [Vec3A],
+    zero: f64,
+) -> f64 {
+    let delta = start_once(precond, f, r, c, q, s);
+    if delta >= 0.0 || delta.is_nan() {
+        return delta;
+    }
+    for (i, ri) in r.iter_mut().enumerate() {
+        *ri = f.at(i, *ri);
+    }
+    let delta = start_once(precond, f, r, c, q, s);
+    if delta >= 0.0 || delta.is_nan() {
+        return delta;
+    }
+    let magnitude = sum_dot64(
+        r.iter()
+            .map(|&ri| ri.abs())
+            .zip(c.iter().map(|&ci| ci.abs())),
+    );
+    if -delta <= zero.max(4.0 * f64::from(f32::EPSILON) * magnitude) {
+        0.0
+    } else {
+        delta
+    }
+}
+
+/// [`start`]'s pass: `c = S P r`, `δ = rᵀ c`.
+fn start_once<F: Filter>(
     precond: &mut impl Preconditioner,
     f: &F,
     r: &[Vec3A],
@@ -1146,6 +1199,49 @@ pub(crate) mod tests {
             let e = rel_err(&x, &want);
             assert!(e <= 1e-5, "n={n}: relative error {e:e}, {st:?}");
         }
+    }
+
+    /// A warm start that already solves the system leaves a residual at `f32`'s rounding, and
+    /// where the constraints carry large impulses that rounding is the filter's: `S (b − A x)`
+    /// of a vector nearly along a held normal. `δ = rᵀ S P r`, a sum of `f32` dot products, can
+    /// then come out a rounding below zero: a converged solve, not an operator that is not
+    /// positive definite. Measured in the World: a crushed disc whose every call failed the
+    /// same way (adversarial scene 14062, `SolverBreakdown` at every step from its 105th,
+    /// `δ = −6e-15` against `δ₀ = 1e-8`), since a failed step keeps its start and warm start.
+    #[test]
+    fn an_exact_warm_start_under_large_impulses_converges() {
+        let mut rng = Lcg(41);
+        let mut failed = 0;
+        for case in 0..2000 {
+            let n = 10 + case % 7;
+            let sys = System::random(&mut rng, n, 20.0);
+            // a contact normal held at every vertex, S = I − m mᵀ, with an impulse 1e4 times
+            // the rest of the right-hand side along it
+            let normals: Vec<Vec3A> = (0..n).map(|_| rng.vec().normalize_or(Vec3A::X)).collect();
+            let filter: Vec<Mat3A> = normals
+                .iter()
+                .map(|&m| Mat3A::IDENTITY - crate::step::system::outer(m, m))
+                .collect();
+            let x_star: Vec<Vec3A> = (0..n).map(|_| rng.vec()).collect();
+            let mut b = vec![Vec3A::ZERO; n];
+            sys.matrix().mul(&x_star, &mut b).unwrap();
+            for (bi, &m) in b.iter_mut().zip(&normals) {
+                *bi += m * (1e4 * (1.0 + rng.uniform()));
+            }
+            let mut x = x_star.clone();
+            let mut w = Scratch::new(n);
+            let st = solve(
+                &sys.matrix(),
+                &sys.precond(),
+                Some(&filter),
+                &b,
+                &mut x,
+                &settings(1e-3, 200),
+                w.work(),
+            );
+            failed += u32::from(!st.is_ok_and(|st| st.converged));
+        }
+        assert_eq!(failed, 0, "{failed} of 2000 exact warm starts failed");
     }
 
     /// Block Jacobi that counts its applications, and with `varying` scales each vertex's
