@@ -838,27 +838,24 @@ fn start<F: Filter>(
     s: &mut [Vec3A],
     zero: f64,
 ) -> f64 {
-    let delta = start_once(precond, f, r, c, q, s);
-    if delta >= 0.0 || delta.is_nan() {
-        return delta;
+    let mut delta = start_once(precond, f, r, c, q, s);
+    if delta < 0.0 {
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = f.at(i, *ri);
+        }
+        delta = start_once(precond, f, r, c, q, s);
     }
-    for (i, ri) in r.iter_mut().enumerate() {
-        *ri = f.at(i, *ri);
-    }
-    let delta = start_once(precond, f, r, c, q, s);
-    if delta >= 0.0 || delta.is_nan() {
-        return delta;
-    }
-    let magnitude = sum_dot64(
-        r.iter()
+    if delta < 0.0 {
+        let terms = r
+            .iter()
             .map(|&ri| ri.abs())
-            .zip(c.iter().map(|&ci| ci.abs())),
-    );
-    if -delta <= zero.max(4.0 * f64::from(f32::EPSILON) * magnitude) {
-        0.0
-    } else {
-        delta
+            .zip(c.iter().map(|&ci| ci.abs()));
+        let rounding = 4.0 * f64::from(f32::EPSILON) * sum_dot64(terms);
+        if -delta <= zero.max(rounding) {
+            return 0.0;
+        }
     }
+    delta
 }
 
 /// [`start`]'s pass: `c = S P r`, `δ = rᵀ c`.
