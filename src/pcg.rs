@@ -517,9 +517,9 @@ fn run<F: Filter>(
     // §5.3's `filter(b − A Δv₀)` with `Δv₀ = z`. (`restart` forms `r` the same way from its
     // own product: with the caller's, the same bits.)
     let mut delta = if product_given {
-        start(precond, f, r, c, q, s, ROUNDING * delta0)
+        start(precond, f, r, c, q, s, delta0)
     } else {
-        restart(a, precond, f, b, x, r, c, q, s, ROUNDING * delta0)
+        restart(a, precond, f, b, x, r, c, q, s, delta0)
     };
     // Where the absolute floor decides (`tol² δ₀ ≤ floor`: the right-hand side is so small
     // that the relative test would ask for less than the floor), a warm start that is worse
@@ -542,7 +542,7 @@ fn run<F: Filter>(
             for (i, (ri, &qi)) in r.iter_mut().zip(q.iter()).enumerate() {
                 *ri += f.at(i, qi);
             }
-            delta = start(precond, f, r, c, q, s, ROUNDING * delta0);
+            delta = start(precond, f, r, c, q, s, delta0);
         }
     }
     if !delta0.is_finite() || !delta.is_finite() || delta < 0.0 {
@@ -631,7 +631,7 @@ fn run<F: Filter>(
             // 8e4 m/s from forces of 8e-3 N·s. One product per solve, kept in q for the
             // caller.
             delta = if grew {
-                restart(a, precond, f, b, x, r, c, q, s, ROUNDING * reference)
+                restart(a, precond, f, b, x, r, c, q, s, reference)
             } else if confirmed(a, f, b, x, r, q, delta_new, threshold) {
                 stats.product_kept = true;
                 break;
@@ -639,7 +639,7 @@ fn run<F: Filter>(
                 for (i, ((ri, &qi), &bi)) in r.iter_mut().zip(q.iter()).zip(b.iter()).enumerate() {
                     *ri = f.at(i, bi - qi);
                 }
-                start(precond, f, r, c, q, s, ROUNDING * reference)
+                start(precond, f, r, c, q, s, reference)
             };
             // Residual replacement (the guard's, or a claim the true residual did not
             // confirm): CG afresh from the true residual of x, whose stats a stop reports. At
@@ -675,7 +675,7 @@ fn run<F: Filter>(
         keep_prescribed(f, x);
     }
     if dropped || drifted {
-        let delta = restart(a, precond, f, b, x, r, c, q, s, ROUNDING * reference);
+        let delta = restart(a, precond, f, b, x, r, c, q, s, reference);
         if !delta.is_finite() || delta < 0.0 {
             return Err(PcgError::Breakdown);
         }
@@ -788,7 +788,8 @@ fn confirmed<F: Filter>(
 }
 
 /// CG's start from `x`: `r = S (b − A x)`, `c = S P r`; returns `δ = rᵀ c` (`= rᵀ P r`, since
-/// `S r = r` and `S` is a symmetric projection). `s` and `q` are scratch.
+/// `S r = r` and `S` is a symmetric projection; `scale` as for [`start`]). `s` and `q` are
+/// scratch.
 #[allow(clippy::too_many_arguments)]
 fn restart<F: Filter>(
     a: &impl Operator,
@@ -800,17 +801,18 @@ fn restart<F: Filter>(
     c: &mut [Vec3A],
     q: &mut [Vec3A],
     s: &mut [Vec3A],
-    zero: f64,
+    scale: f64,
 ) -> f64 {
     a.apply(x, r);
     for (i, (ri, &bi)) in r.iter_mut().zip(b.iter()).enumerate() {
         *ri = f.at(i, bi - *ri);
     }
-    start(precond, f, r, c, q, s, zero)
+    start(precond, f, r, c, q, s, scale)
 }
 
 /// `f32::EPSILON²`: a `δ` (a squared residual) below zero by no more than this times the
-/// solve's reference is a relative residual that `f32` cannot resolve ([`start`]).
+/// solve's scale (its reference `δ₀`) is a relative residual that `f32` cannot resolve
+/// ([`start`]).
 const ROUNDING: f64 = (f32::EPSILON as f64) * (f32::EPSILON as f64);
 
 /// CG's start from the residual `r`: `c = S P r`; returns `δ = rᵀ c`. `s` and `q` are scratch.
@@ -824,8 +826,8 @@ const ROUNDING: f64 = (f32::EPSILON as f64) * (f32::EPSILON as f64);
 /// against `δ₀ = 1e-8`; a failed step keeps its start and its warm start, so the next call
 /// failed the same way). So a negative `δ` filters `r` once more (its part outside the range
 /// shrinks to the rounding of a rounding) and is taken again; one still below zero by no more
-/// than the rounding of its `f32` dot products (a few `ε` of `Σ |rᵢ|·|cᵢ|`) or than `zero`
-/// (the caller's [`ROUNDING`] of its reference: a relative residual below `ε`) is zero, a
+/// than the rounding of its `f32` dot products (a few `ε` of `Σ |rᵢ|·|cᵢ|`) or than
+/// [`ROUNDING`] of `scale` (the solve's reference: a relative residual below `ε`) is zero, a
 /// solve at `f32`'s floor; one further below is a preconditioner that is not positive
 /// definite, left negative for the caller's breakdown test. The usual path (`δ ≥ 0`) is
 /// unchanged.
@@ -836,7 +838,7 @@ fn start<F: Filter>(
     c: &mut [Vec3A],
     q: &mut [Vec3A],
     s: &mut [Vec3A],
-    zero: f64,
+    scale: f64,
 ) -> f64 {
     let mut delta = start_once(precond, f, r, c, q, s);
     if delta < 0.0 {
@@ -851,7 +853,7 @@ fn start<F: Filter>(
             .map(|&ri| ri.abs())
             .zip(c.iter().map(|&ci| ci.abs()));
         let rounding = 4.0 * f64::from(f32::EPSILON) * sum_dot64(terms);
-        if -delta <= zero.max(rounding) {
+        if -delta <= (ROUNDING * scale).max(rounding) {
             return 0.0;
         }
     }
