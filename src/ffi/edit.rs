@@ -653,7 +653,8 @@ unsafe fn set_pin_axes(
 /// Pins vertex `vertex` in one direction only: it stays in the plane through `target`
 /// (metres, in your coordinates) normal to `normal` (any length but zero; normalized) and moves freely, without
 /// friction, within it. Otherwise as `weft_world_set_pin` (it replaces any pin the vertex had;
-/// moving the target moves the plane). A pinned vertex ignores colliders. A zero normal is
+/// moving the target moves the plane; another target in the same plane is the same pin, and
+/// does not wake the world). A pinned vertex ignores colliders. A zero normal is
 /// `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` "axis").
 ///
 /// # Safety

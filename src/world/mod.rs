@@ -706,7 +706,9 @@ impl<'a> World<'a> {
 
     /// Pins `vertex` to `target` (m, caller's coordinates) in the directions `axes` holds and leaves it free in the
     /// others (a ring on a rail: [`PinAxes::Line`]); otherwise as [`World::set_pin`]. The held
-    /// directions are the solver's constraint filter, so the free ones feel no friction.
+    /// directions are the solver's constraint filter, so the free ones feel no friction. Only
+    /// the line or plane through `target` matters: another target on it is the same pin (it
+    /// does not wake the world), and the step keeps the point of it nearest the vertex.
     pub fn set_pin_axes(
         &mut self,
         vertex: u32,
