@@ -1039,21 +1039,31 @@ typedef struct WeftStepStats {
      * Times the step was redone with twice the substeps (and, when it gained after
      * converged solves at a tolerance looser than the default, a tenth of it) because its end
      * state held energy that nothing supplied (0 to 3, and up to 5 while each redo at least
-     * halved the gain; `substeps` is the count finally used).
+     * halved the gain; `substeps` is the count finally used), and once more when it was then
+     * energy-limited (`limited`).
      */
     uint32_t redone;
     /**
-     * Energy (J) the step then still took out of the kinetic energy (0 for a sound step).
+     * Energy (J) the step then still took out: of the kinetic energy at the end, or by the
+     * energy-limited substeps (`limited`); 0 for a sound step.
      */
     float energy_removed;
     /**
-     * 1 when even the redos gained more energy than the kinetic energy could give back, so
-     * the world held the cloth still for this step instead: positions as at its start, but
-     * the pinned vertices on their targets and every other vertex put out of the colliders
-     * (as they are at the end of the step), velocities zero (`energy_removed` is the kinetic
-     * energy it had); else 0.
+     * 1 when even the energy-limited attempt (`limited`) gained more energy than the kinetic
+     * energy could give back, so the world held the cloth still for this step instead:
+     * positions as at its start, but the pinned vertices on their targets and every other
+     * vertex put out of the colliders (as they are at the end of the step), velocities zero
+     * (`energy_removed` is the kinetic energy it had); else 0.
      */
     uint32_t stopped;
+    /**
+     * 1 when the redos gained more energy than the kinetic energy could give back, so the
+     * step was done once more with each substep's end energy-limited: the velocity of the
+     * vertices no pin holds scaled by the first of 1, ½, …, 1/64 (else 0) that ends the
+     * substep with no more energy than it began with (a Newton step that overshoots on a
+     * membrane squeezed to a fraction of its size still goes partly downhill); else 0.
+     */
+    uint32_t limited;
 } WeftStepStats;
 
 /**

@@ -240,6 +240,7 @@ pub(super) fn stats_to_c(s: &StepStats) -> WeftStepStats {
         redone: s.redone,
         energy_removed: s.energy_removed,
         stopped: s.stopped.into(),
+        limited: s.limited.into(),
     }
 }
 

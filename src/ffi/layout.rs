@@ -118,6 +118,7 @@ no_padding!(WeftStepStats {
     redone: u32,
     energy_removed: f32,
     stopped: u32,
+    limited: u32,
 });
 no_padding!(WeftLocalizeOutput {
     positions: *mut c_void,

@@ -83,7 +83,7 @@ fn collide_on(c: &Counts, st: &Settings) -> bool {
     st.effects & effects::COLLISION != 0 && c.colliders > 0
 }
 
-fn pins_on(c: &Counts, st: &Settings) -> bool {
+pub(crate) fn pins_on(c: &Counts, st: &Settings) -> bool {
     st.effects & effects::PINS != 0 && c.pins > 0
 }
 

@@ -95,17 +95,21 @@ pub(crate) struct Report {
     pub contacts: u32,
     /// Work (J) done on the cloth from outside: moving pins and colliders, wind.
     pub input: f64,
+    /// Energy (J) the energy-limited end took out ([`system::limit`]).
+    pub removed: f64,
 }
 
 /// Solves after contacts were let go or engaged, at most (`contacts::release`, `contacts::engage`).
 const RELEASE_ROUNDS: u32 = 2;
 
-/// One linearized implicit Euler substep.
+/// One linearized implicit Euler substep; `limited`: its end is energy-limited
+/// ([`system::limit`], the last attempt at a step that gained at every other).
 pub(crate) fn substep(
     a: &mut Arrays<'_>,
     c: &Counts,
     st: &Settings,
     sub: Substep,
+    limited: bool,
 ) -> Result<Report, StepError> {
     forces::accumulate(a, c, st, sub.h)?;
     let mut constrained = contacts::constrain(a, c, st, sub)?;
@@ -148,6 +152,13 @@ pub(crate) fn substep(
             ..more.stats
         };
     }
+    #[cfg(feature = "research")]
+    let limited = limited && !forces::per_node_warping(st);
+    let removed = if limited {
+        system::limit(a, c, st, sub.h, constrained)?
+    } else {
+        0.0
+    };
     let mut input = if constrained {
         contacts::constraint_work(a, c, st, sub)?
     } else {
@@ -171,6 +182,7 @@ pub(crate) fn substep(
         first_iterations,
         contacts: touching,
         input,
+        removed,
     })
 }
 

@@ -151,6 +151,21 @@ pub(crate) fn potential(a: &Arrays<'_>, c: &Counts, st: &Settings) -> Result<f64
     Ok(elastic + bending + gravity_potential(a, c, st)?)
 }
 
+/// [`potential`] with the applied forces' potential `−Σ f·x` too (constant over a step):
+/// what the work of every constant force changes.
+pub(crate) fn loaded_potential(
+    a: &Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+) -> Result<f64, StepError> {
+    let applied: f64 = live(a.applied_force, c.n)?
+        .iter()
+        .zip(live(a.x, c.n)?)
+        .map(|(&f, x)| f64::from(Vec3A::from(f).dot(*x)))
+        .sum();
+    Ok(potential(a, c, st)? - applied)
+}
+
 /// The gravitational potential `−Σ m g·x` (J), zero without gravity.
 pub(crate) fn gravity_potential(
     a: &Arrays<'_>,

@@ -97,6 +97,26 @@ pub(crate) struct Solved {
     pub operators_kept: bool,
 }
 
+/// The system [`fold`] made, `A`, as a [`sparse::BlockMatrix`] over the arrays `$a` (a macro,
+/// not a function, so that it borrows only the fields it reads and the caller may write the
+/// others). The hinge-only bending couplings were not folded (they have no blocks): `c_k`
+/// scales them in the product.
+macro_rules! operator {
+    ($a:expr, $c:expr, $st:expr, $h:expr) => {{
+        let c_k = if $st.effects & effects::BENDING != 0 {
+            coefficients($st, $h).1
+        } else {
+            0.0
+        };
+        sparse::BlockMatrix {
+            diag: live($a.k_diag, $c.n)?,
+            pattern: pattern($a.row_start, $a.cols, $c)?,
+            off: live($a.k_off, $c.nnz)?,
+            scalars: hinge_scalars($a.hinge_start, $a.hinge_cols, $a.q_hinge, $c, c_k)?,
+        }
+    }};
+}
+
 /// Solves `A Δv = rhs` for `a.dv` (the system [`fold`] made), starting from the current `a.dv`.
 /// With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so that `A Δv − rhs` is
 /// the impulse the pins and contacts supplied (their work enters the step's energy balance,
@@ -128,20 +148,7 @@ pub(crate) fn solve(
             operators_kept: false,
         });
     }
-    // The hinge-only bending couplings were not folded (they have no blocks): `c_k` scales
-    // them in the product.
-    let bending_on = st.effects & effects::BENDING != 0;
-    let c_k = if bending_on {
-        coefficients(st, h).1
-    } else {
-        0.0
-    };
-    let op = sparse::BlockMatrix {
-        diag: live(a.k_diag, n)?,
-        pattern: pattern(a.row_start, a.cols, c)?,
-        off: live(a.k_off, c.nnz)?,
-        scalars: hinge_scalars(a.hinge_start, a.hinge_cols, a.q_hinge, c, c_k)?,
-    };
+    let op = operator!(a, c, st, h);
     let filter = if constrained {
         Some(live(a.filter, n)?)
     } else {
@@ -248,6 +255,110 @@ pub(crate) fn solve(
         stats,
         operators_kept,
     })
+}
+
+/// Halvings of the free velocity [`limit`] tries before it stops the free part.
+const LIMIT_HALVINGS: u32 = 6;
+
+/// The energy-limited end of a substep, for the last attempt at a step whose every attempt
+/// gained energy (`World::step_dt`): the end velocity `u = v + Δv`, split into its part the
+/// pins and contacts prescribe, `p = (I − S) u`, and its free part `f = S u` (`S`: the filter),
+/// becomes `p + β f` with the first `β` of `1, ½, ¼, …, 1/64` whose end state holds no more
+/// energy than the substep's start,
+///
+/// ```text
+///     ½ |p + β f|²_M + P(x + h (p + β f))  ≤  ½ |v|²_M + P(x)
+/// ```
+///
+/// (`P`: elastic, bending, and the potential of gravity and the applied forces), or `β = 0`,
+/// where the free part stops. Why: the linearized implicit step is one Newton step, and on a
+/// non-convex energy (a membrane squeezed around a pin inside a collider, Green strains of 2–3)
+/// it can overshoot at every substep count, from rest too: the balance then held the cloth
+/// still at every step, each costing every redo, while it crept toward rest (a stiff strip
+/// pinned 2 cm inside a sphere: 38 steps in a row, `tests/hard_cases.rs`). The Newton
+/// direction descends the substep's incremental potential, which from rest is this energy, so
+/// a fraction of it goes on downhill; `β = 0` always balances where nothing is prescribed.
+/// Wind, damping and drag are left out (the end may only be lower). Leaves `Δv = p + β f − v`
+/// and, with constraints, `a.w_q = A Δv`; returns the energy the scaling took out (J).
+/// `a.w_c` and `a.w_p` (free between the solve and the projection) hold `x` and `f`.
+pub(crate) fn limit(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    h: f32,
+    constrained: bool,
+) -> Result<f64, StepError> {
+    let n = c.n;
+    let start = super::monitor::kinetic(live(a.mass, n)?, live(a.v, n)?)
+        + super::monitor::loaded_potential(a, c, st)?;
+    {
+        let (x, v, dv) = (live(a.x, n)?, live(a.v, n)?, live(a.dv, n)?);
+        let (x_n, free) = (live_mut(a.w_c, n)?, live_mut(a.w_p, n)?);
+        x_n.copy_from_slice(x);
+        let pins = super::contacts::pins_on(c, st);
+        let (filter, pin_of) = (live(a.filter, n)?, live(a.pin_of, n)?);
+        let vertices = free
+            .iter_mut()
+            .zip(v.iter().zip(dv))
+            .zip(filter.iter().zip(pin_of));
+        for ((f, (&v, &d)), (&s, &pin)) in vertices {
+            // a pin's filter is its free directions (pins override contacts)
+            *f = if pins && pin != crate::mesh::NONE {
+                s * (v + d)
+            } else {
+                v + d
+            };
+        }
+    }
+    // The end energy with the free part scaled by `beta`; leaves `x` there.
+    let end = |a: &mut Arrays<'_>, beta: f32| -> Result<f64, StepError> {
+        let mut kinetic = 0.0f64;
+        let moved = live_mut(a.x, n)?
+            .iter_mut()
+            .zip(live(a.w_c, n)?.iter().zip(live(a.w_p, n)?))
+            .zip(
+                live(a.v, n)?
+                    .iter()
+                    .zip(live(a.dv, n)?)
+                    .zip(live(a.mass, n)?),
+            );
+        for ((x, (&x_n, &f)), ((&v, &d), &m)) in moved {
+            let u = v + d - f + f * beta;
+            *x = x_n + u * h;
+            kinetic += 0.5 * f64::from(m) * f64::from(u.length_squared());
+        }
+        Ok(kinetic + super::monitor::loaded_potential(a, c, st)?)
+    };
+    let full = end(a, 1.0)?;
+    let mut beta = 1.0f32;
+    let mut kept = full;
+    if full > start {
+        beta = 0.0;
+        let mut tried = 1.0f32;
+        for _ in 0..LIMIT_HALVINGS {
+            tried *= 0.5;
+            let e = end(a, tried)?;
+            if e <= start {
+                (beta, kept) = (tried, e);
+                break;
+            }
+        }
+        if beta == 0.0 {
+            kept = end(a, 0.0)?;
+        }
+    }
+    live_mut(a.x, n)?.copy_from_slice(live(a.w_c, n)?);
+    if beta != 1.0 {
+        for (d, &f) in live_mut(a.dv, n)?.iter_mut().zip(live(a.w_p, n)?) {
+            *d = *d - f + f * beta;
+        }
+        if constrained {
+            operator!(a, c, st, h)
+                .mul(live(a.dv, n)?, live_mut(a.w_q, n)?)
+                .map_err(|_| StepError::SolverBreakdown)?;
+        }
+    }
+    Ok((full - kept).max(0.0))
 }
 
 /// The Galerkin correction of an unconstrained solve's `Δv` on the six rigid modes `W`, the

@@ -72,8 +72,9 @@ pub enum StepError {
     /// tried; the world kept the state it had before.
     NonFiniteState,
     /// The step's energy balance is not a number (its energies overflowed `f64`). The state
-    /// is the one before this step. (A step that gains energy is redone, and as a last resort
-    /// the cloth is held still: [`StepStats::stopped`].)
+    /// is the one before this step. (A step that gains energy is redone, then energy-limited,
+    /// and as a last resort the cloth is held still: [`StepStats::limited`],
+    /// [`StepStats::stopped`].)
     Unstable,
 }
 
@@ -102,10 +103,12 @@ pub struct StepStats {
     /// Times the step was redone with twice the substeps (and, when it gained after
     /// converged solves at a tolerance looser than the default, a tenth of it) because its end
     /// state had gained energy that nothing supplied (0 to 3, and up to 5 while each redo at
-    /// least halved the gain; `substeps` is the count finally used).
+    /// least halved the gain; `substeps` is the count finally used), and once more when it
+    /// was then energy-limited (`limited`).
     pub redone: u32,
-    /// Energy (J) taken out of the kinetic energy at the end because the step still gained it
-    /// without input after its redos (0 for a sound step).
+    /// Energy (J) taken out because the step still gained it without input after its redos:
+    /// out of the kinetic energy at the end, or by the energy-limited substeps (`limited`);
+    /// 0 for a sound step.
     pub energy_removed: f32,
     /// The energy balance of the step (J): end energy − start energy − work of external
     /// input, before any removal. ≤ 0 for a step that dissipates.
@@ -116,7 +119,16 @@ pub struct StepStats {
     /// targets and every other vertex put out of the colliders (as a substep's projection
     /// does, where the colliders are at the end of the step), velocities zero
     /// (`energy_removed` is the kinetic energy it had). The next step starts from rest.
+    /// Only when the energy-limited attempt (`limited`) failed too.
     pub stopped: bool,
+    /// Its redos gained more energy than the kinetic energy could give back, so the step was
+    /// done once more with each substep's end energy-limited: the velocity the solve gave the
+    /// vertices no pin holds scaled by the first of 1, ½, …, 1/64 (else 0) that leaves the
+    /// substep with no more energy than it began with (`energy_removed` counts what that
+    /// took). The linearized step is one Newton step, and on a non-convex energy (a membrane
+    /// squeezed to a fraction of its size) it can overshoot at every substep count; part of
+    /// it still goes downhill.
+    pub limited: bool,
 }
 
 /// A cloth's mechanical energy by kind (J).

@@ -1050,7 +1050,9 @@ impl<'a> World<'a> {
     /// halves the gain; with the multilevel preconditioner if its block-Jacobi solves did not
     /// converge), and what it still gains is taken out of its kinetic energy
     /// (see [`StepStats::redone`], [`StepStats::energy_removed`]); when that cannot cover it,
-    /// the cloth is held still for the step ([`StepStats::stopped`]). A substep whose solve
+    /// the step is done once more with each substep's end energy-limited
+    /// ([`StepStats::limited`]), and only if that fails too is the cloth held still for the
+    /// step ([`StepStats::stopped`]). A substep whose solve
     /// breaks down or whose state overflows is redone the same way, and fails the step only
     /// after the last redo. On error the world keeps the state it had before the call.
     pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
@@ -1132,6 +1134,9 @@ impl<'a> World<'a> {
         let mut solver = self.solver;
         let mut tolerance = self.settings.tolerance;
         let mut previous_gain = None;
+        // The stats of the attempt before an energy-limited one: what a hold keeps should the
+        // limited one fail.
+        let mut limited: Option<StepStats> = None;
         let stats = loop {
             // An end state whose energy overflows (its positions finite, its elastic terms
             // beyond `f32`) is an overflowed state too: its balance reads `∞ ≤ ∞` (the
@@ -1139,7 +1144,7 @@ impl<'a> World<'a> {
             // Measured: adversarial scene 5079 (a cloth crushed by a moving shell) accepted
             // such a step and then broke down at every call.
             let attempt = self
-                .run_substeps(dt, substeps, solver, tolerance)
+                .run_substeps(dt, substeps, solver, tolerance, limited.is_some())
                 .and_then(|stats| {
                     let end = monitor::level(&self.a, &counts, &self.settings)?;
                     if end.energy.is_finite() && end.noise.is_finite() {
@@ -1162,6 +1167,14 @@ impl<'a> World<'a> {
                 // start kept: holding the cloth still (`stop`) would put the pins on targets
                 // that may be what broke the solve (a pin at 1e30 m).
                 Err(e @ (StepError::SolverBreakdown | StepError::NonFiniteState)) => {
+                    if let Some(stats) = limited {
+                        let tried = StepStats {
+                            limited: true,
+                            redone,
+                            ..stats
+                        };
+                        break self.stop(pins_on, tried)?;
+                    }
                     if !redo {
                         return Err(e);
                     }
@@ -1182,12 +1195,13 @@ impl<'a> World<'a> {
             let floor = start.noise + end.excess + gravity_noise + input_noise;
             stats.redone = redone;
             stats.energy_gain = gain as f32;
+            stats.limited = limited.is_some();
             if gain <= floor {
                 self.level = Some(end);
                 break stats;
             }
             let converging = room && monitor::converging(redone, gain, previous_gain);
-            if redo || converging {
+            if limited.is_none() && (redo || converging) {
                 previous_gain = Some(gain);
                 // Redo from the start with half the substep, and after converged solves at a
                 // loose tolerance a tighter one: the linearization, the contacts' one-substep
@@ -1217,18 +1231,31 @@ impl<'a> World<'a> {
             let excess = gain - floor;
             let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess)?;
             if removed < excess {
-                break self.stop(pins_on, stats)?;
+                if limited.is_some() {
+                    break self.stop(pins_on, stats)?;
+                }
+                // Once more, at the settings' substeps (the redos' last solver and tolerance),
+                // each substep's end energy-limited (`step::system::limit`): from rest, or near
+                // it, a gain its kinetic energy cannot cover is the Newton step's overshoot, and
+                // a fraction of it goes on downhill where holding the cloth still stopped it at
+                // every step. (At the last attempt's substeps instead: as few steps held, at up
+                // to 8× the cost of such a step.)
+                self.restore_start(true);
+                redone += 1;
+                limited = Some(stats);
+                substeps = self.settings.substeps.max(1);
+                continue;
             }
-            stats.energy_removed = removed as f32;
+            stats.energy_removed += removed as f32;
             self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
             break stats;
         };
         Ok(stats)
     }
 
-    /// The step's last resort, when even its redos gain more than their kinetic energy can
-    /// give back (a flat cloth kicked out of its plane stretches in one linearized substep,
-    /// and the stretch shrinks only as h⁴; a solve that cannot converge in `f32`): the cloth
+    /// The step's last resort, when even its redos and its energy-limited attempt gain more
+    /// than their kinetic energy can give back (the limited substeps balance by themselves
+    /// only where the projection out of colliders and the wind add nothing): the cloth
     /// is held still for this step, where it started, with no velocity, but with what holds
     /// it done: its pinned vertices are put on their targets, and every other vertex out of
     /// the colliders, where they are at the end of the step, as each substep's projection
@@ -1271,6 +1298,7 @@ impl<'a> World<'a> {
         substeps: u32,
         solver: Solver,
         tolerance: f32,
+        limited: bool,
     ) -> Result<StepStats, StepError> {
         let settings = Settings {
             tolerance,
@@ -1293,7 +1321,8 @@ impl<'a> World<'a> {
                 t0: s as f32 / substeps as f32,
                 t: (s + 1) as f32 / substeps as f32,
             };
-            let report = step::substep(&mut self.a, &counts, &settings, sub)?;
+            let report = step::substep(&mut self.a, &counts, &settings, sub, limited)?;
+            stats.energy_removed += report.removed as f32;
             stats.iterations += report.solve.iterations;
             stats.solves += report.solves;
             stats.first_iterations += report.first_iterations;
