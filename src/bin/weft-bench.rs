@@ -8,7 +8,7 @@
 //! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
 //! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
 //! it off alone. Speed is never quoted alone: every run also reports the steps the energy
-//! balance redid or held still, the energy it removed, the energy drift (each step's balance,
+//! balance redid, energy-limited or held still, the energy it removed, the energy drift (each step's balance,
 //! end − start − input, summed: negative when the steps dissipate; and the worst step's), and
 //! the worst edge strain.
 
@@ -103,8 +103,10 @@ struct Run {
     cg_per_resolve: f64,
     converged: f64,
     world_bytes: usize,
-    /// Steps the energy balance redid, steps it held still, energy it removed (J).
+    /// Steps the energy balance redid, steps it energy-limited, steps it held still, energy
+    /// it removed (J).
     redone: u32,
+    limited: u32,
     stopped: u32,
     removed: f64,
     /// The energy drift: each step's balance (`StepStats::energy_gain`: end energy − start
@@ -217,7 +219,8 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32, turn: f32) -> Result<Run, String
     let mut times = Vec::with_capacity(steps as usize);
     let (mut iterations, mut solves, mut first, mut substeps) = (0u64, 0u64, 0u64, 0u64);
     let mut converged = 0u32;
-    let (mut redone, mut stopped, mut removed, mut worst_strain) = (0u32, 0u32, 0.0f64, 0.0f64);
+    let (mut redone, mut limited, mut stopped) = (0u32, 0u32, 0u32);
+    let (mut removed, mut worst_strain) = (0.0f64, 0.0f64);
     let (mut drift, mut worst_gain) = (0.0f64, f64::NEG_INFINITY);
     let mut final_strain = worst_edge_strain(&world);
     for _ in 0..steps {
@@ -232,6 +235,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32, turn: f32) -> Result<Run, String
                 substeps += s.substeps as u64;
                 converged += s.converged as u32;
                 redone += (s.redone > 0) as u32;
+                limited += s.limited as u32;
                 stopped += s.stopped as u32;
                 removed += f64::from(s.energy_removed);
                 drift += f64::from(s.energy_gain);
@@ -253,6 +257,7 @@ fn run(blob: &Blob<'_>, args: &Args, mask: u32, turn: f32) -> Result<Run, String
         converged: converged as f64 / steps.max(1) as f64,
         world_bytes: bytes,
         redone,
+        limited,
         stopped,
         removed,
         drift,
@@ -336,6 +341,7 @@ fn real_main(args: &Args) -> Result<(), String> {
                 "converged_fraction": r.converged,
                 "world_bytes": r.world_bytes,
                 "steps_redone": r.redone,
+                "steps_limited": r.limited,
                 "steps_stopped": r.stopped,
                 "energy_removed_j": r.removed,
                 "energy_drift_j": r.drift,
@@ -361,8 +367,8 @@ fn real_main(args: &Args) -> Result<(), String> {
         println!("converged        {:.0}% of steps", r.converged * 100.0);
         println!("solver           {}", args.solver);
         println!(
-            "energy balance   {} steps redone, {} held still, {:.3e} J removed",
-            r.redone, r.stopped, r.removed
+            "energy balance   {} steps redone, {} energy-limited, {} held still, {:.3e} J removed",
+            r.redone, r.limited, r.stopped, r.removed
         );
         println!(
             "energy drift     {:+.3e} J over the steps (end − start − input; negative: \
@@ -395,6 +401,7 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
     let first = spread(&|r| r.cg_first);
     let strain = spread(&|r| r.worst_strain);
     let redone: u32 = runs.iter().map(|r| r.redone).sum();
+    let limited: u32 = runs.iter().map(|r| r.limited).sum();
     let stopped: u32 = runs.iter().map(|r| r.stopped).sum();
     let worst_gain = runs
         .iter()
@@ -412,6 +419,7 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
                 "cg_iterations_first_solve": first.0,
                 "cg_iterations_first_solve_range": [first.1, first.2],
                 "steps_redone": redone,
+                "steps_limited": limited,
                 "steps_stopped": stopped,
                 "energy_gain_worst_step_j": worst_gain,
                 "worst_edge_strain": strain.0,
@@ -432,7 +440,8 @@ fn print_spread(args: &Args, runs: &[Run]) -> Result<(), String> {
             cg.0, cg.1, cg.2, first.0, first.1, first.2, args.tolerance
         );
         println!(
-            "energy balance   {redone} steps redone, {stopped} held still over all runs; \
+            "energy balance   {redone} steps redone, {limited} energy-limited, {stopped} held \
+             still over all runs; \
              worst step {worst_gain:+.3e} J"
         );
         println!(
