@@ -1134,9 +1134,9 @@ impl<'a> World<'a> {
         let mut solver = self.solver;
         let mut tolerance = self.settings.tolerance;
         let mut previous_gain = None;
-        // The stats of the attempt before an energy-limited one: what a hold keeps should the
-        // limited one fail.
-        let mut limited: Option<StepStats> = None;
+        // Once the step is energy-limited: the stats of the attempt before it, what a hold
+        // keeps should the limited attempt break down.
+        let mut limiting: Option<StepStats> = None;
         let stats = loop {
             // An end state whose energy overflows (its positions finite, its elastic terms
             // beyond `f32`) is an overflowed state too: its balance reads `∞ ≤ ∞` (the
@@ -1144,7 +1144,7 @@ impl<'a> World<'a> {
             // Measured: adversarial scene 5079 (a cloth crushed by a moving shell) accepted
             // such a step and then broke down at every call.
             let attempt = self
-                .run_substeps(dt, substeps, solver, tolerance, limited.is_some())
+                .run_substeps(dt, substeps, solver, tolerance, limiting.is_some())
                 .and_then(|stats| {
                     let end = monitor::level(&self.a, &counts, &self.settings)?;
                     if end.energy.is_finite() && end.noise.is_finite() {
@@ -1167,7 +1167,7 @@ impl<'a> World<'a> {
                 // start kept: holding the cloth still (`stop`) would put the pins on targets
                 // that may be what broke the solve (a pin at 1e30 m).
                 Err(e @ (StepError::SolverBreakdown | StepError::NonFiniteState)) => {
-                    if let Some(stats) = limited {
+                    if let Some(stats) = limiting {
                         let tried = StepStats {
                             limited: true,
                             redone,
@@ -1195,13 +1195,13 @@ impl<'a> World<'a> {
             let floor = start.noise + end.excess + gravity_noise + input_noise;
             stats.redone = redone;
             stats.energy_gain = gain as f32;
-            stats.limited = limited.is_some();
+            stats.limited = limiting.is_some();
             if gain <= floor {
                 self.level = Some(end);
                 break stats;
             }
             let converging = room && monitor::converging(redone, gain, previous_gain);
-            if limited.is_none() && (redo || converging) {
+            if limiting.is_none() && (redo || converging) {
                 previous_gain = Some(gain);
                 // Redo from the start with half the substep, and after converged solves at a
                 // loose tolerance a tighter one: the linearization, the contacts' one-substep
@@ -1231,7 +1231,7 @@ impl<'a> World<'a> {
             let excess = gain - floor;
             let removed = monitor::remove_kinetic(&mut self.a, &counts, pins_on, excess)?;
             if removed < excess {
-                if limited.is_some() {
+                if limiting.is_some() {
                     break self.stop(pins_on, stats)?;
                 }
                 // Once more, at the settings' substeps (the redos' last solver and tolerance),
@@ -1242,7 +1242,7 @@ impl<'a> World<'a> {
                 // to 8× the cost of such a step.)
                 self.restore_start(true);
                 redone += 1;
-                limited = Some(stats);
+                limiting = Some(stats);
                 substeps = self.settings.substeps.max(1);
                 continue;
             }
