@@ -8,9 +8,9 @@
 //! of it, all effects on unless `--effects` names fewer. Prints one JSON object with `--json`,
 //! a readable table otherwise. `--effects-table` measures the cost of each effect by turning
 //! it off alone. Speed is never quoted alone: every run also reports the steps the energy
-//! balance redid, energy-limited or held still, the energy it removed, the energy drift (each step's balance,
-//! end − start − input, summed: negative when the steps dissipate; and the worst step's), and
-//! the worst edge strain.
+//! balance redid, energy-limited or held still, the energy it removed, the energy drift (each
+//! step's balance, end − start − input, summed: negative when the steps dissipate; and the
+//! worst step's), and the worst edge strain.
 
 use std::path::PathBuf;
 use std::time::Instant;

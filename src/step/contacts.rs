@@ -923,11 +923,11 @@ pub(crate) fn release(
 /// A vertex held only by the contacts of edges or faces around it, with no contact of its
 /// own, counts as free here: those contacts hold it along their normals, and its free
 /// directions carry it into the collider as well. Its hold is made again, its own contacts
-/// first (their normals are its first axes, below). Skipped, it was carried in and projected out at every substep: a strip
-/// resting on a sphere beside a vertex pinned inside it (the edges to the pin cut through the
-/// sphere) had three such vertices carried ~0.1 mm in and put back against 28 kN, +9 J in a
-/// step from rest, which the balance refused, so the strip was held still at every step once
-/// it had come to rest (`tests/hard_cases.rs`).
+/// first (their normals are its first axes, below). Skipped, it was carried in and projected
+/// out at every substep: a strip resting on a sphere beside a vertex pinned inside it (the
+/// edges to the pin cut through the sphere) had three such vertices carried ~0.1 mm in and put
+/// back against 28 kN, +9 J in a step from rest, which the balance refused, so the strip was
+/// held still at every step once it had come to rest (`tests/hard_cases.rs`).
 ///
 /// Why: contacts are predicted from the velocity at the substep's start, so a vertex at rest
 /// beside a collider, which the membrane or gravity accelerates into it within the substep,
