@@ -1060,8 +1060,9 @@ typedef struct WeftStepStats {
      * 1 when the redos gained more energy than the kinetic energy could give back, so the
      * step was done once more with each substep's end energy-limited: the velocity of the
      * vertices no pin holds scaled by the first of 1, ½, …, 1/64 (else 0) that ends the
-     * substep with no more energy than it began with (a Newton step that overshoots on a
-     * membrane squeezed to a fraction of its size still goes partly downhill); else 0.
+     * substep with no more energy than it began with and the wind gave it (a Newton step that
+     * overshoots on a membrane squeezed to a fraction of its size still goes partly
+     * downhill); else 0.
      */
     uint32_t limited;
 } WeftStepStats;

@@ -194,10 +194,9 @@ pub(crate) fn wind_work(
     st: &Settings,
     h: f32,
 ) -> Result<f64, StepError> {
-    if st.effects & effects::WIND == 0 || st.drag <= 0.0 {
+    if !wind_blows(st) {
         return Ok(0.0);
     }
-    let wind = Vec3A::from(st.wind);
     let n = c.n;
     let mut work = 0.0f64;
     for ((nrm, &area), vi) in live(a.normals, n)?
@@ -205,7 +204,20 @@ pub(crate) fn wind_work(
         .zip(live(a.area, n)?)
         .zip(live(a.v, n)?)
     {
-        work += f64::from(st.drag * area * wind.dot(*nrm) * nrm.dot(*vi) * h);
+        work += vertex_wind_work(st, h, *nrm, area, *vi);
     }
     Ok(work)
+}
+
+/// [`wind_work`]'s share of one vertex (normal `nrm`, lumped area `area`, end velocity `v`);
+/// the caller checks that the wind is on.
+#[inline]
+pub(crate) fn vertex_wind_work(st: &Settings, h: f32, nrm: Vec3A, area: f32, v: Vec3A) -> f64 {
+    let wind = Vec3A::from(st.wind);
+    f64::from(st.drag * area * wind.dot(nrm) * nrm.dot(v) * h)
+}
+
+/// Whether the air does work on the cloth ([`wind_work`] is not zero).
+pub(crate) fn wind_blows(st: &Settings) -> bool {
+    st.effects & effects::WIND != 0 && st.drag > 0.0
 }

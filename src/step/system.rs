@@ -267,10 +267,11 @@ const LIMIT_HALVINGS: u32 = 6;
 /// …, 1/64` whose end state holds no more energy than the substep's start,
 ///
 /// ```text
-///     ½ |p + β f|²_M + P(x + h (p + β f))  ≤  ½ |v|²_M + P(x)
+///     ½ |p + β f|²_M + P(x + h (p + β f)) − W(p + β f)  ≤  ½ |v|²_M + P(x)
 /// ```
 ///
-/// (`P`: elastic, bending, and the potential of gravity and the applied forces), or `β = 0`,
+/// (`P`: elastic, bending, and the potential of gravity and the applied forces; `W`: the
+/// wind's work), or `β = 0`,
 /// where only the pins move. Why: the linearized implicit step is one Newton step, and on a
 /// non-convex energy (a membrane squeezed around a pin inside a collider, Green strains of 2–3)
 /// it can overshoot at every substep count, from rest too: the balance then held the cloth
@@ -282,7 +283,9 @@ const LIMIT_HALVINGS: u32 = 6;
 /// `Δv` (a vertex the solve carries toward a surface is drawn onto it), and kept alone they
 /// moved the held vertices against their still neighbours (that strip: +4.5e-4 J at `β = 0`);
 /// scaled, a vertex still approaches a still surface no further than its contact allows.
-/// Wind, damping and drag are left out (the end may only be lower). Leaves `Δv = p + β f − v`
+/// The wind's work on the end velocity (what the step counts as the wind's input) is credited
+/// to the end: without it a limited substep in a wind was slowed below what the wind gave it.
+/// Damping and the drag's own part are left out (they only lower the end). Leaves `Δv = p + β f − v`
 /// and, with constraints, `a.w_q = A Δv`; returns the energy the scaling took out (J).
 /// `a.w_c` and `a.w_p` (free between the solve and the projection) hold `x` and `f`.
 pub(crate) fn limit(
@@ -314,9 +317,11 @@ pub(crate) fn limit(
             };
         }
     }
-    // The end energy with the free part scaled by `beta`; leaves `x` there.
+    // The end energy with the free part scaled by `beta`, less the wind's work on the end
+    // velocity (`forces::wind_work`'s, which the step counts as input); leaves `x` there.
+    let wind = super::forces::wind_blows(st);
     let end = |a: &mut Arrays<'_>, beta: f32| -> Result<f64, StepError> {
-        let mut kinetic = 0.0f64;
+        let (mut kinetic, mut work) = (0.0f64, 0.0f64);
         let moved = live_mut(a.x, n)?
             .iter_mut()
             .zip(live(a.w_c, n)?.iter().zip(live(a.w_p, n)?))
@@ -325,13 +330,17 @@ pub(crate) fn limit(
                     .iter()
                     .zip(live(a.dv, n)?)
                     .zip(live(a.mass, n)?),
-            );
-        for ((x, (&x_n, &f)), ((&v, &d), &m)) in moved {
+            )
+            .zip(live(a.normals, n)?.iter().zip(live(a.area, n)?));
+        for (((x, (&x_n, &f)), ((&v, &d), &m)), (&nrm, &area)) in moved {
             let u = v + d - f + f * beta;
             *x = x_n + u * h;
             kinetic += 0.5 * f64::from(m) * f64::from(u.length_squared());
+            if wind {
+                work += super::forces::vertex_wind_work(st, h, nrm, area, u);
+            }
         }
-        Ok(kinetic + super::monitor::loaded_potential(a, c, st)?)
+        Ok(kinetic - work + super::monitor::loaded_potential(a, c, st)?)
     };
     let full = end(a, 1.0)?;
     let mut beta = 1.0f32;
@@ -636,6 +645,57 @@ mod tests {
             gained >= 5 && kept >= 5,
             "{gained} of 40 unlimited substeps gained, {kept} did not"
         );
+    }
+
+    /// A substep that gains only what the wind gives it is not limited: the limit credits the
+    /// wind's work on the end velocity (`forces::wind_work`'s, which the step counts as input)
+    /// to the end. Without it a flat anisotropic cloth at rest in a wind along its normal was
+    /// slowed to a stop (`β = 0`, all of the wind's push taken out).
+    #[test]
+    fn a_substep_that_gains_only_the_wind_s_work_is_not_limited() {
+        use crate::world::{effects, Settings};
+        let grid = crate::world::TestGrid::new(6, 0.3);
+        let n = grid.positions.len();
+        let run = |limited: bool| {
+            let mut mem = grid.memory();
+            let mut w = grid.world(&mut mem);
+            let normal = *w.normals().first().unwrap();
+            w.set_settings(Settings {
+                effects: effects::WIND | effects::WARPING | effects::BENDING,
+                time_step: 1.0 / 30.0,
+                substeps: 1,
+                wind: (normal * 4.0).to_array(),
+                drag: 0.5,
+                ..Settings::default()
+            })
+            .unwrap();
+            let (a, c, st) = w.stage();
+            let energy = |a: &Arrays<'_>| {
+                super::super::monitor::kinetic(live(a.mass, n).unwrap(), live(a.v, n).unwrap())
+                    + super::super::monitor::loaded_potential(a, &c, &st).unwrap()
+            };
+            let start = energy(a);
+            let sub = super::super::Substep {
+                h: st.time_step,
+                t0: 0.0,
+                t: 1.0,
+            };
+            let report = super::super::substep(a, &c, &st, sub, limited).unwrap();
+            let v = live(a.v, n).unwrap().to_vec();
+            (start, energy(a), report.removed, v)
+        };
+        let (start, free_end, _, free_v) = run(false);
+        let (_, _, removed, v) = run(true);
+        assert!(
+            free_end > start + 1e-6,
+            "the wind gives the cloth {} J",
+            free_end - start
+        );
+        assert_eq!(
+            removed, 0.0,
+            "the limit took {removed} J of the wind's push"
+        );
+        assert_eq!(v, free_v);
     }
 
     /// The correction leaves a residual with no net force and no net torque and an error no

@@ -124,8 +124,8 @@ pub struct StepStats {
     /// Its redos gained more energy than the kinetic energy could give back, so the step was
     /// done once more with each substep's end energy-limited: the velocity the solve gave the
     /// vertices no pin holds scaled by the first of 1, ½, …, 1/64 (else 0) that leaves the
-    /// substep with no more energy than it began with (`energy_removed` counts what that
-    /// took). The linearized step is one Newton step, and on a non-convex energy (a membrane
+    /// substep with no more energy than it began with and the wind gave it (`energy_removed`
+    /// counts what that took). The linearized step is one Newton step, and on a non-convex energy (a membrane
     /// squeezed to a fraction of its size) it can overshoot at every substep count; part of
     /// it still goes downhill.
     pub limited: bool,
