@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
 
-const COLUMNS: [&str; 14] = [
+const COLUMNS: [&str; 16] = [
     "scene",
     "cell",
     "material",
@@ -19,6 +19,8 @@ const COLUMNS: [&str; 14] = [
     "err_mean",
     "err_max",
     "steps_held",
+    "steps_redone",
+    "steps_limited",
 ];
 
 #[test]
@@ -55,16 +57,18 @@ fn tiny_study_homogenized_beats_averaged_across_the_stripes() {
         r[c].parse()
             .unwrap_or_else(|_| panic!("{c} = {} is not a number", r[c]))
     };
-    // every run that completed counts the steps the energy balance held still (its last
-    // resort since it no longer refuses a step for its energy): a count, "-" only for a run
-    // that did not complete
+    // every run that completed counts the steps the energy balance redid, energy-limited and
+    // held still (its last resort since it no longer refuses a step for its energy): counts,
+    // "-" only for a run that did not complete
     for r in &rows {
         if r["status"] == "ok" {
-            assert!(
-                r["steps_held"].parse::<usize>().is_ok(),
-                "steps_held = {} is not a count in {r:?}",
-                r["steps_held"]
-            );
+            for c in ["steps_held", "steps_redone", "steps_limited"] {
+                assert!(
+                    r[c].parse::<usize>().is_ok(),
+                    "{c} = {} is not a count in {r:?}",
+                    r[c]
+                );
+            }
         }
     }
 

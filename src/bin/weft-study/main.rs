@@ -308,10 +308,42 @@ pub struct Row {
     pub sheet_m: f64,
     /// Largest vertex speed at the end (m/s): how close to rest a static scene got.
     pub max_speed: f64,
-    /// Steps the energy balance held the cloth still (its last resort, `StepStats::stopped`:
-    /// positions kept, velocities zeroed); `None` when the run did not complete.
-    pub steps_held: Option<usize>,
+    /// What the energy balance did in the run's steps (`None` when the run did not
+    /// complete): its cost is in `ms_per_step`.
+    pub balance: Option<Balance>,
     pub status: String,
+}
+
+/// How many of a run's steps the energy balance redid, energy-limited or held still.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Balance {
+    /// Steps redone with more substeps at least once (`StepStats::redone`), because an
+    /// attempt gained energy that nothing supplied: each costs its attempts.
+    pub redone: usize,
+    /// Steps done once more with each substep energy-limited (`StepStats::limited`).
+    pub limited: usize,
+    /// Steps the balance held the cloth still, its last resort (`StepStats::stopped`: the
+    /// positions of the start, pins on their targets, velocities zero).
+    pub held: usize,
+}
+
+impl Balance {
+    fn count(&mut self, stats: &weft::world::StepStats) {
+        self.redone += usize::from(stats.redone > 0);
+        self.limited += usize::from(stats.limited);
+        self.held += usize::from(stats.stopped);
+    }
+}
+
+impl std::ops::Add for Balance {
+    type Output = Balance;
+    fn add(self, o: Balance) -> Balance {
+        Balance {
+            redone: self.redone + o.redone,
+            limited: self.limited + o.limited,
+            held: self.held + o.held,
+        }
+    }
 }
 
 /// The result of stepping one world through a scene.
@@ -321,12 +353,11 @@ struct SimOut {
     /// CG iterations summed over the accepted steps.
     iterations: u64,
     max_speed: f64,
-    /// Steps the energy balance held the cloth still (`StepStats::stopped`): the step was
-    /// taken, but its positions are those of its start and its velocities zero.
-    held: usize,
+    /// What the energy balance did in the accepted steps.
+    balance: Balance,
     /// Steps the world refused (lenient runs only) and the first refusal. The energy balance
     /// refuses a step only when it is not a number (`StepError::Unstable`); a step that gains
-    /// energy is held still instead (`held`). The other refusals are the step's other errors
+    /// energy is redone, energy-limited or held still instead (`balance`). The other refusals are the step's other errors
     /// (non-finite state, solver breakdown).
     refused: usize,
     first_refusal: Option<String>,
@@ -349,7 +380,7 @@ fn simulate(
 
 /// [`simulate`]; `lenient`: a step the world refuses (it keeps its state) is counted in
 /// `SimOut::refused` and timed like the others instead of ending the run (for timing only).
-/// Steps held still are counted in `SimOut::held` in every run.
+/// What the energy balance did is counted in `SimOut::balance` in every run.
 #[allow(clippy::too_many_arguments)]
 fn simulate_with(
     sheet: &Sheet,
@@ -375,7 +406,7 @@ fn simulate_with(
     }
     let mut step_ms = Vec::with_capacity(steps);
     let mut iterations = 0u64;
-    let (mut held, mut refused, mut first_refusal) = (0usize, 0usize, None);
+    let (mut balance, mut refused, mut first_refusal) = (Balance::default(), 0usize, None);
     for step in 0..steps {
         if step == 0 || scene.pins_move(step) {
             for &p in &pinned {
@@ -391,7 +422,7 @@ fn simulate_with(
         match result {
             Ok(stats) => {
                 iterations += u64::from(stats.iterations);
-                held += usize::from(stats.stopped);
+                balance.count(&stats);
             }
             Err(e) if lenient => {
                 refused += 1;
@@ -413,7 +444,7 @@ fn simulate_with(
         step_ms,
         iterations,
         max_speed,
-        held,
+        balance,
         refused,
         first_refusal,
     })
@@ -712,7 +743,7 @@ fn run_case(
         coarse_vertices: None,
         sheet_m: size,
         max_speed: f64::NAN,
-        steps_held: None,
+        balance: None,
         status: "ok".into(),
     };
     let mut rows = Vec::new();
@@ -759,7 +790,7 @@ fn run_case(
         err_normal_deg: 0.0,
         cg_iters: out.iterations as f64 / steps as f64,
         max_speed: out.max_speed,
-        steps_held: Some(out.held),
+        balance: Some(out.balance),
         ..row("fine", &reference_knobs)
     });
     // The fine sheet with the runtime's own CG settings: what the fine simulation would cost
@@ -787,7 +818,7 @@ fn run_case(
                 fine_row.err_normal_deg = normal_error(&nrm, &reference_normals);
                 fine_row.cg_iters = o.iterations as f64 / steps as f64;
                 fine_row.max_speed = o.max_speed;
-                fine_row.steps_held = Some(o.held);
+                fine_row.balance = Some(o.balance);
             }
             Err(e) => fine_row.status = format!("failed: {e}"),
         }
@@ -882,7 +913,7 @@ fn run_case(
                         ms_per_step: median(&o.step_ms),
                         cg_iters: o.iterations as f64 / steps as f64,
                         max_speed: o.max_speed,
-                        steps_held: Some(o.held),
+                        balance: Some(o.balance),
                         ..base.clone()
                     };
                     if let Some(e) = failed {
@@ -975,8 +1006,8 @@ pub struct BenchRun {
     pub solver: Solver,
     /// CG iterations per accepted step.
     pub iters: f64,
-    /// Steps held still by the energy balance (`StepStats::stopped`); timed like the others.
-    pub held: usize,
+    /// What the energy balance did (steps redone, limited, held still); timed like the others.
+    pub balance: Balance,
     /// Steps refused (only for an energy balance that is not a number, `StepError::Unstable`,
     /// or another step error); timed like the others.
     pub refused: usize,
@@ -993,17 +1024,21 @@ impl BenchRun {
             substeps: knobs.substeps,
             solver: knobs.solver,
             iters: o.iterations as f64 / accepted as f64,
-            held: o.held,
+            balance: o.balance,
             refused: o.refused,
             first_refusal: o.first_refusal.clone(),
         }
     }
-    /// `timing only; N of M steps held still` (always: a count of 0 says the run was checked),
-    /// then the refusals if any.
+    /// `timing only; of M steps R redone, L energy-limited, H held still` (always: counts of 0
+    /// say the run was checked), then the refusals if any.
     pub fn status(&self) -> String {
+        let Balance {
+            redone,
+            limited,
+            held,
+        } = self.balance;
         let mut s = format!(
-            "timing only; {} of {} steps held still",
-            self.held,
+            "timing only; of {} steps {redone} redone, {limited} energy-limited, {held} held still",
             self.ms.len()
         );
         if let Some(e) = &self.first_refusal {
@@ -1101,7 +1136,9 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
         step_ms: coarse_runs.iter().flat_map(|o| o.step_ms.clone()).collect(),
         iterations: coarse_runs.iter().map(|o| o.iterations).sum(),
         max_speed: 0.0,
-        held: coarse_runs.iter().map(|o| o.held).sum(),
+        balance: coarse_runs
+            .iter()
+            .fold(Balance::default(), |b, o| b + o.balance),
         refused: 0,
         first_refusal: None,
     };
@@ -1130,7 +1167,7 @@ fn run_bench(b: &Bench) -> Result<BenchOut, String> {
         coarse_vertices: None,
         sheet_m: fine.width,
         max_speed: f64::NAN,
-        steps_held: Some(run.held),
+        balance: Some(run.balance),
         status: run.status(),
     };
     let mut rows = vec![row("fine", &fine_run)];

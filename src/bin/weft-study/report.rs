@@ -13,7 +13,7 @@ use crate::scenes::Kind;
 use crate::upsample::Mode;
 use crate::{median, BenchOut, Knobs, Picture, Row, CELLS, REFERENCE_MAX_ITER};
 
-pub const CSV_COLUMNS: [&str; 26] = [
+pub const CSV_COLUMNS: [&str; 28] = [
     "scene",
     "cell",
     "material",
@@ -39,6 +39,8 @@ pub const CSV_COLUMNS: [&str; 26] = [
     "sheet_m",
     "max_speed",
     "steps_held",
+    "steps_redone",
+    "steps_limited",
     "status",
 ];
 
@@ -103,7 +105,9 @@ impl Row {
             opt(self.coarse_vertices),
             format!("{}", self.sheet_m),
             num(self.max_speed),
-            opt(self.steps_held),
+            opt(self.balance.map(|b| b.held)),
+            opt(self.balance.map(|b| b.redone)),
+            opt(self.balance.map(|b| b.limited)),
             self.status.replace(',', ";"),
         ]
         .join(",")
@@ -505,8 +509,8 @@ fn markdown(preset: &str, rows: &[Row], bench: Option<&BenchOut>) -> String {
         let _ = writeln!(
             md,
             "Drape scene (1/120 s steps). Medians over the timed steps; one core. A step the \
-             energy balance holds still (its last resort for a step that gains energy: \
-             positions kept, velocities zeroed) is timed like the others and counted in the \
+             energy balance redoes with more substeps, energy-limits or holds still (what it \
+             does with a step that gains energy) is timed like the others and counted in the \
              status; so is a refused step (the balance refuses only when it is not a number, \
              `Unstable`).\n"
         );
@@ -1028,7 +1032,7 @@ mod tests {
             coarse_vertices: Some(9),
             sheet_m: 0.2,
             max_speed: 0.0,
-            steps_held: Some(0),
+            balance: Some(crate::Balance::default()),
             status: status.into(),
         }
     }
