@@ -590,7 +590,7 @@ mod tests {
                 .collect();
             let rail = rng.vec().normalize_or(Vec3A::X).to_array();
             // the energy at the start and at the end of the substep, limited or not
-            let run = |limited: bool| -> (f64, f64, f64) {
+            let run = |limited: bool| {
                 let mut mem = grid.memory();
                 let mut w = grid.world(&mut mem);
                 let settings = Settings {
@@ -606,22 +606,10 @@ mod tests {
                 w.set_pin(0, x[0]).unwrap();
                 w.set_pin_axes(7, x[7], PinAxes::Line { direction: rail })
                     .unwrap();
-                let (a, c, st) = w.stage();
-                let energy = |a: &Arrays<'_>| {
-                    super::super::monitor::kinetic(live(a.mass, n).unwrap(), live(a.v, n).unwrap())
-                        + super::super::monitor::loaded_potential(a, &c, &st).unwrap()
-                };
-                let start = energy(a);
-                let sub = super::super::Substep {
-                    h: st.time_step,
-                    t0: 0.0,
-                    t: 1.0,
-                };
-                let report = super::super::substep(a, &c, &st, sub, limited).unwrap();
-                (start, energy(a), report.removed)
+                one_substep(&mut w, limited)
             };
-            let (start, free_end, _) = run(false);
-            let (same_start, end, removed) = run(true);
+            let (start, free_end, _, _) = run(false);
+            let (same_start, end, removed, _) = run(true);
             assert_eq!(start, same_start);
             let scale = start.abs().max(free_end.abs()).max(1e-9);
             assert!(
@@ -647,6 +635,34 @@ mod tests {
         );
     }
 
+    /// One substep of `w`, as long as its settings' time step, limited or not: the energy the
+    /// limit weighs (kinetic and loaded potential) at its start and at its end, the energy the
+    /// limit took, and the end velocities.
+    fn one_substep(
+        w: &mut crate::world::World<'_>,
+        limited: bool,
+    ) -> (f64, f64, f64, std::vec::Vec<Vec3A>) {
+        let (a, c, st) = w.stage();
+        let n = c.n;
+        let energy = |a: &Arrays<'_>| {
+            super::super::monitor::kinetic(live(a.mass, n).unwrap(), live(a.v, n).unwrap())
+                + super::super::monitor::loaded_potential(a, &c, &st).unwrap()
+        };
+        let start = energy(a);
+        let sub = super::super::Substep {
+            h: st.time_step,
+            t0: 0.0,
+            t: 1.0,
+        };
+        let report = super::super::substep(a, &c, &st, sub, limited).unwrap();
+        (
+            start,
+            energy(a),
+            report.removed,
+            live(a.v, n).unwrap().to_vec(),
+        )
+    }
+
     /// A substep that gains only what the wind gives it is not limited: the limit credits the
     /// wind's work on the end velocity (`forces::wind_work`'s, which the step counts as input)
     /// to the end. Without it a flat anisotropic cloth at rest in a wind along its normal was
@@ -655,7 +671,6 @@ mod tests {
     fn a_substep_that_gains_only_the_wind_s_work_is_not_limited() {
         use crate::world::{effects, Settings};
         let grid = crate::world::TestGrid::new(6, 0.3);
-        let n = grid.positions.len();
         let run = |limited: bool| {
             let mut mem = grid.memory();
             let mut w = grid.world(&mut mem);
@@ -669,20 +684,7 @@ mod tests {
                 ..Settings::default()
             })
             .unwrap();
-            let (a, c, st) = w.stage();
-            let energy = |a: &Arrays<'_>| {
-                super::super::monitor::kinetic(live(a.mass, n).unwrap(), live(a.v, n).unwrap())
-                    + super::super::monitor::loaded_potential(a, &c, &st).unwrap()
-            };
-            let start = energy(a);
-            let sub = super::super::Substep {
-                h: st.time_step,
-                t0: 0.0,
-                t: 1.0,
-            };
-            let report = super::super::substep(a, &c, &st, sub, limited).unwrap();
-            let v = live(a.v, n).unwrap().to_vec();
-            (start, energy(a), report.removed, v)
+            one_substep(&mut w, limited)
         };
         let (start, free_end, _, free_v) = run(false);
         let (_, _, removed, v) = run(true);
