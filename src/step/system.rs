@@ -285,8 +285,9 @@ const LIMIT_HALVINGS: u32 = 6;
 /// scaled, a vertex still approaches a still surface no further than its contact allows.
 /// The wind's work on the end velocity (what the step counts as the wind's input) is credited
 /// to the end: without it a limited substep in a wind was slowed below what the wind gave it.
-/// Damping and the drag's own part are left out (they only lower the end). Leaves `Δv = p + β f − v`
-/// and, with constraints, `a.w_q = A Δv`; returns the energy the scaling took out (J).
+/// Damping and the drag's own part are left out (they only lower the end). Leaves
+/// `Δv = p + β f − v` and, with constraints, `a.w_q = A Δv`; returns the energy the scaling took
+/// out (J).
 /// `a.w_c` and `a.w_p` (free between the solve and the projection) hold `x` and `f`.
 pub(crate) fn limit(
     a: &mut Arrays<'_>,

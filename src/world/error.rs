@@ -125,9 +125,9 @@ pub struct StepStats {
     /// done once more with each substep's end energy-limited: the velocity the solve gave the
     /// vertices no pin holds scaled by the first of 1, ½, …, 1/64 (else 0) that leaves the
     /// substep with no more energy than it began with and the wind gave it (`energy_removed`
-    /// counts what that took). The linearized step is one Newton step, and on a non-convex energy (a membrane
-    /// squeezed to a fraction of its size) it can overshoot at every substep count; part of
-    /// it still goes downhill.
+    /// counts what that took). The linearized step is one Newton step, and on a non-convex
+    /// energy (a membrane squeezed to a fraction of its size) it can overshoot at every substep
+    /// count; part of it still goes downhill.
     pub limited: bool,
 }
 

@@ -357,8 +357,8 @@ struct SimOut {
     balance: Balance,
     /// Steps the world refused (lenient runs only) and the first refusal. The energy balance
     /// refuses a step only when it is not a number (`StepError::Unstable`); a step that gains
-    /// energy is redone, energy-limited or held still instead (`balance`). The other refusals are the step's other errors
-    /// (non-finite state, solver breakdown).
+    /// energy is redone, energy-limited or held still instead (`balance`). The other refusals
+    /// are the step's other errors (non-finite state, solver breakdown).
     refused: usize,
     first_refusal: Option<String>,
 }
