@@ -88,7 +88,7 @@ pub(crate) fn accumulate(
     }
     let gravity = Vec3A::from(st.gravity);
     let gravity_on = eff & effects::GRAVITY != 0;
-    let wind_on = eff & effects::WIND != 0 && st.drag > 0.0;
+    let wind_on = wind_blows(st);
     let wind = Vec3A::from(st.wind);
     for ((((r, &m), vi), (nrm, &area)), applied) in rhs
         .iter_mut()
