@@ -270,25 +270,24 @@ const LIMIT_HALVINGS: u32 = 6;
 ///     ½ |p + β f|²_M + P(x + h (p + β f)) − W(p + β f)  ≤  ½ |v|²_M + P(x)
 /// ```
 ///
-/// (`P`: elastic, bending, and the potential of gravity and the applied forces; `W`: the
-/// wind's work), or `β = 0`,
-/// where only the pins move. Why: the linearized implicit step is one Newton step, and on a
-/// non-convex energy (a membrane squeezed around a pin inside a collider, Green strains of 2–3)
-/// it can overshoot at every substep count, from rest too: the balance then held the cloth
-/// still at every step, each costing every redo, while it crept toward rest (a stiff strip
-/// pinned 2 cm inside a sphere: 38 steps in a row, `tests/hard_cases.rs`). The Newton
-/// direction descends the substep's incremental potential, which from rest is this energy, so
-/// a fraction of it goes on downhill; `β = 0` balances wherever the pins stand still. The
-/// contacts' prescribed velocities are scaled with the rest: they were set for the whole
-/// `Δv` (a vertex the solve carries toward a surface is drawn onto it), and kept alone they
-/// moved the held vertices against their still neighbours (that strip: +4.5e-4 J at `β = 0`);
-/// scaled, a vertex still approaches a still surface no further than its contact allows.
-/// The wind's work on the end velocity (what the step counts as the wind's input) is credited
-/// to the end: without it a limited substep in a wind was slowed below what the wind gave it.
-/// Damping and the drag's own part are left out (they only lower the end). Leaves
-/// `Δv = p + β f − v` and, with constraints, `a.w_q = A Δv`; returns the energy the scaling took
-/// out (J).
-/// `a.w_c` and `a.w_p` (free between the solve and the projection) hold `x` and `f`.
+/// (`P`: elastic, bending, and the potential of gravity and the applied forces; `W`: the wind's
+/// work), or `β = 0`, where only the pins move. Why: the linearized implicit step is one Newton
+/// step, and on a non-convex energy (a membrane squeezed around a pin inside a collider, Green
+/// strains of 2–3) it can overshoot at every substep count, from rest too: the balance then
+/// held the cloth still at every step, each costing every redo, while it crept toward rest (a
+/// stiff strip pinned 2 cm inside a sphere: 38 steps in a row, `tests/hard_cases.rs`). The
+/// Newton direction descends the substep's incremental potential, which from rest is this
+/// energy, so a fraction of it goes on downhill; `β = 0` balances wherever the pins stand
+/// still. The contacts' prescribed velocities are scaled with the rest: they were set for the
+/// whole `Δv` (a vertex the solve carries toward a surface is drawn onto it), and kept alone
+/// they moved the held vertices against their still neighbours (that strip: +4.5e-4 J at
+/// `β = 0`); scaled, a vertex still approaches a still surface no further than its contact
+/// allows. The wind's work on the end velocity (what the step counts as the wind's input) is
+/// credited to the end: without it a limited substep in a wind was slowed below what the wind
+/// gave it. Damping and the drag's own part are left out (they only lower the end). Leaves
+/// `Δv = p + β f − v` and, with constraints, `a.w_q = A Δv`; returns the energy the scaling
+/// took out (J). `a.w_c` and `a.w_p` (free between the solve and the projection) hold `x` and
+/// `f`.
 pub(crate) fn limit(
     a: &mut Arrays<'_>,
     c: &Counts,
