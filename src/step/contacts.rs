@@ -337,8 +337,8 @@ struct Touch {
     /// Its own motion ends the substep within the thickness (no slop needed).
     reaches: bool,
     /// Its predicted end lies within the contact slop only by the slop's part for gravity's
-    /// fall (`Scene::slop_fall`): a vertex's own contact does not hold it then
-    /// ([`Scene::hold_onto`]).
+    /// fall (`Scene::slop_fall`): a vertex so near a surface is not held before the solve
+    /// ([`Scene::hold_onto`]), but it still counts as touching for its neighbours' edges.
     falling: bool,
     /// Signed distance beyond the thickness at the substep's start (negative: inside).
     depth: f32,
@@ -467,8 +467,8 @@ impl Scene<'_> {
         // the projection had put on a shell's surface, a rounding above it, was not held; a pin
         // pulling the cloth out through the shell drew it 2 mm through in the next solve, and
         // the projection put it back against the stretched edges to the pin, at every substep
-        // (adversarial scene 5202: 119 steps held still, 73 in a row). A vertex's own contact
-        // does not hold it within the slop's part for gravity's fall alone (`Touch::falling`).
+        // (adversarial scene 5202: 119 steps held still, 73 in a row). A vertex within the
+        // slop's part for gravity's fall alone is not held (`Touch::falling`).
         if predicted >= col.thickness + self.slop(placed, p) {
             return None;
         }
@@ -580,20 +580,27 @@ impl Scene<'_> {
                     // overruled at once. It is at the surface: no edge or face tests either.
                     continue;
                 }
-                // A vertex within the slop above the surface only by gravity's fall in the
-                // substep is not held by its own contact: where it does fall in, the solve's
-                // motion says so and [`engage`] holds it then (its band has the fall). Held
-                // here, every vertex that the membrane held within `g h²` above a surface was
-                // drawn toward it: on a fine cloth (3.3 mm edges) dropped on a sphere with a
-                // thickness of 1 mm at 1/60 s, 38–61 contacts still did work on it after the
-                // release rounds, 4–5e-4 J a substep (the cloth held ~2.3e-4 J), and the
-                // energy balance redid every step. Its edges still count it as touching
-                // ([`Scene::edge_touches`]): their contacts, which nothing catches after the
-                // solve, keep the fall in their slop, and with such a corner counted as free
-                // they held the edges beside it by their own contacts, which pulled
-                // (adversarial scene 16085, a 12 × 12 cloth among four colliders: 107 of 295
-                // steps redone instead of none).
-                if !t.falling && hold.add(t, dropped) && t.depth < deepest {
+                if t.falling {
+                    // Within the slop above the surface only by gravity's fall in the substep:
+                    // not held before the solve, by its own contact nor by its edges' and
+                    // faces' (as one let go, above); where it does fall in, the solve's motion
+                    // says so and [`engage`] holds it then (its band has the fall). Held by its
+                    // own contact, every vertex that the membrane held within `g h²` above a
+                    // surface was drawn toward it: on a fine cloth (3.3 mm edges) dropped on a
+                    // sphere with a thickness of 1 mm at 1/60 s, 38–61 contacts still did work
+                    // on it after the release rounds, 4–5e-4 J a substep (the cloth held ~2.3e-4
+                    // J), and the energy balance redid every step. Held by its edges' and faces'
+                    // contacts alone (they keep the fall in their slop, as nothing catches them
+                    // after the solve), such vertices wedged a cloth on a thin capsule: 20 held,
+                    // two of them along all three axes, kept 109 J of stretch in it for 200
+                    // steps after the scene switched its pins off (adversarial scene 16085,
+                    // where the version before let it go at once). The edges of
+                    // its neighbours still count it as touching ([`Scene::edge_touches`]):
+                    // counted as free, it let them hold the edges beside it by their own
+                    // contacts, which pulled (16085 again: 107 of 295 steps redone).
+                    continue;
+                }
+                if hold.add(t, dropped) && t.depth < deepest {
                     deepest = t.depth;
                     hold.primary = Some((k, t.vs));
                 }
