@@ -588,13 +588,13 @@ impl Scene<'_> {
                     // own contact, every vertex that the membrane held within `g h²` above a
                     // surface was drawn toward it: on a fine cloth (3.3 mm edges) dropped on a
                     // sphere with a thickness of 1 mm at 1/60 s, 38–61 contacts still did work
-                    // on it after the release rounds, 4–5e-4 J a substep (the cloth held ~2.3e-4
-                    // J), and the energy balance redid every step. Held by its edges' and faces'
-                    // contacts alone (they keep the fall in their slop, as nothing catches them
-                    // after the solve), such vertices wedged a cloth on a thin capsule: 20 held,
-                    // two of them along all three axes, kept 109 J of stretch in it for 200
-                    // steps after the scene switched its pins off (adversarial scene 16085,
-                    // where the version before let it go at once). The edges of
+                    // on it after the release rounds, 4–5e-4 J a substep (the cloth held
+                    // ~2.3e-4 J), and the energy balance redid every step. Held by its edges'
+                    // and faces' contacts alone (they keep the fall in their slop, as nothing
+                    // catches them after the solve), such vertices wedged a cloth on a thin
+                    // capsule: 20 held, two of them along all three axes, kept 109 J of stretch
+                    // in it for 200 steps after the scene switched its pins off (adversarial
+                    // scene 16085, where the version before let it go at once). The edges of
                     // its neighbours still count it as touching ([`Scene::edge_touches`]):
                     // counted as free, it let them hold the edges beside it by their own
                     // contacts, which pulled (16085 again: 107 of 295 steps redone).
