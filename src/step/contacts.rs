@@ -574,16 +574,13 @@ impl Scene<'_> {
             let placed = self.sweep.placed(k, col, &mut spare);
             let touches = self.vertex_touch(placed, i);
             if let Some(t) = &touches {
-                if strict && !t.reaches {
+                if (strict && !t.reaches) || t.falling {
                     // Let go ([`LET_GO`]): held again only where its own motion reaches the
                     // surface, not by the slop, so the membrane that lifted it is not
                     // overruled at once. It is at the surface: no edge or face tests either.
-                    continue;
-                }
-                if t.falling {
-                    // Within the slop above the surface only by gravity's fall in the substep:
-                    // not held before the solve, by its own contact nor by its edges' and
-                    // faces' (as one let go, above); where it does fall in, the solve's motion
+                    // Within the slop above the surface only by gravity's fall in the substep
+                    // (`Touch::falling`): not held before the solve either, by its own contact
+                    // nor by its edges' and faces'; where it does fall in, the solve's motion
                     // says so and [`engage`] holds it then (its band has the fall). Held by its
                     // own contact, every vertex that the membrane held within `g h²` above a
                     // surface was drawn toward it: on a fine cloth (3.3 mm edges) dropped on a
