@@ -345,7 +345,9 @@ pub(crate) fn limit(
     let full = end(a, 1.0)?;
     let mut beta = 1.0f32;
     let mut kept = full;
-    if full > start {
+    // (an end that overflowed to NaN, an infinite kinetic energy against an infinite potential,
+    // is scaled like one above the start: compared as `full > start` it went through whole)
+    if full.is_nan() || full > start {
         beta = 0.0;
         let mut tried = 1.0f32;
         for _ in 0..LIMIT_HALVINGS {
@@ -371,7 +373,10 @@ pub(crate) fn limit(
                 .map_err(|_| StepError::SolverBreakdown)?;
         }
     }
-    Ok((full - kept).max(0.0))
+    // An end whose energy overflowed (a diverged solve's `Δv`) is no measure of what the
+    // scaling took: counted from the start instead, what `removed` reports stays finite.
+    let from = if full.is_finite() { full } else { start };
+    Ok((from - kept).max(0.0))
 }
 
 /// The Galerkin correction of an unconstrained solve's `Δv` on the six rigid modes `W`, the
@@ -633,6 +638,50 @@ mod tests {
             gained >= 5 && kept >= 5,
             "{gained} of 40 unlimited substeps gained, {kept} did not"
         );
+    }
+
+    /// A `Δv` whose end overflows (a diverged solve's) is limited like any other, and what the
+    /// limit reports taking stays finite: counted from the start, not from the overflowed end
+    /// (`StepStats::energy_removed` read `inf` after adversarial scene 16038's limited step,
+    /// whose end's kinetic energy overflowed). Here every vertex is given 2e19 m/s, whose
+    /// square overflows `f32`, over a substep so short that the cloth moves 2 m rigidly, so
+    /// that only the kinetic energy overflows; and one vertex alone over a whole substep, whose
+    /// end's elastic energy overflows too (an end of NaN, which went through the limit whole).
+    #[test]
+    fn an_overflowed_end_is_limited_and_reported_finite() {
+        use crate::world::{effects, Settings};
+        let grid = crate::world::TestGrid::new(6, 0.3);
+        for one in [false, true] {
+            let mut mem = grid.memory();
+            let mut w = grid.world(&mut mem);
+            w.set_settings(Settings {
+                effects: effects::GRAVITY | effects::WARPING,
+                substeps: 1,
+                ..Settings::default()
+            })
+            .unwrap();
+            let (a, c, st) = w.stage();
+            let n = c.n;
+            let fast = Vec3A::new(2e19, 0.0, 0.0);
+            let dv = live_mut(a.dv, n).unwrap();
+            if one {
+                dv[7] = fast;
+            } else {
+                dv.fill(fast);
+            }
+            let h = if one { st.time_step } else { 1e-19 };
+            let removed = limit(a, &c, &st, h, false).unwrap();
+            assert!(
+                removed.is_finite() && removed >= 0.0,
+                "one: {one}, removed {removed} J"
+            );
+            let dv = live(a.dv, n).unwrap();
+            assert!(
+                dv.iter().all(|d| *d == Vec3A::ZERO),
+                "one: {one}, {:?}",
+                dv[7]
+            );
+        }
     }
 
     /// One substep of `w`, as long as its settings' time step, limited or not: the energy the
