@@ -1547,6 +1547,50 @@ pub(crate) fn place_pins(a: &mut Arrays<'_>, c: &Counts, t: f32) -> Result<(), S
     Ok(())
 }
 
+/// Puts the free vertices out of the still colliders by position alone, as the substep's
+/// projection will (its still pass, [`Pass::Still`]): what the energy-limited end
+/// (`system::limit`) weighs of it. `a.w_c` holds where each vertex began the substep. Left
+/// where they are: the pushes, which the balance counts as input (a moving collider's, and a
+/// vertex that began deeper than its allowance). Velocities are not touched: the projection
+/// also takes a vertex's velocity into the surface away, so the limit's end weighs at most
+/// the kinetic energy the substep ends with.
+pub(crate) fn place_outside_still(
+    a: &mut Arrays<'_>,
+    c: &Counts,
+    st: &Settings,
+    sub: Substep,
+) -> Result<(), StepError> {
+    if !collide_on(c, st) {
+        return Ok(());
+    }
+    let pins = pins_on(c, st);
+    let depenetration = sub.h * st.max_depenetration_speed;
+    let sweep = Sweep::new(live(a.colliders, c.colliders)?, sub);
+    let vertices = live_mut(a.x, c.n)?
+        .iter_mut()
+        .zip(live(a.w_c, c.n)?.iter().zip(live(a.pin_of, c.n)?));
+    for (xi, (&start, &pin)) in vertices {
+        if pins && pin != mesh::NONE {
+            continue;
+        }
+        let mut spare = None;
+        for (k, col) in sweep.colliders.iter().enumerate() {
+            if col.previous != col.shape {
+                continue;
+            }
+            let placed = sweep.placed(k, col, &mut spare);
+            if placed.after.proximity(*xi).distance >= col.thickness
+                || placed.beyond_allowance(start, depenetration).is_some()
+            {
+                continue;
+            }
+            let mut v = Vec3A::ZERO;
+            collide::resolve(&placed.after, Vec3A::ZERO, col.thickness, 0.0, xi, &mut v);
+        }
+    }
+    Ok(())
+}
+
 /// Puts every free vertex out of every collider, where the colliders are at the end of the
 /// step: what each substep's projection does, for a cloth held still (`World::stop`), whose
 /// vertices keep no velocity. Pinned vertices are left to their pins, and a vertex inside two

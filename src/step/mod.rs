@@ -155,7 +155,7 @@ pub(crate) fn substep(
     #[cfg(feature = "research")]
     let limited = limited && !forces::per_node_warping(st);
     let removed = if limited {
-        system::limit(a, c, st, sub.h, constrained)?
+        system::limit(a, c, st, sub, constrained)?
     } else {
         0.0
     };

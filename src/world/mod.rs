@@ -1254,8 +1254,8 @@ impl<'a> World<'a> {
     }
 
     /// The step's last resort, when even its redos and its energy-limited attempt gain more
-    /// than their kinetic energy can give back (the limited substeps balance by themselves
-    /// only where the projection out of colliders adds nothing): the cloth
+    /// than their kinetic energy can give back (the limited substeps balance by themselves but
+    /// for what they do not scale: the pins' motion and the pushes out of colliders): the cloth
     /// is held still for this step, where it started, with no velocity, but with what holds
     /// it done: its pinned vertices are put on their targets, and every other vertex out of
     /// the colliders, where they are at the end of the step, as each substep's projection
