@@ -353,8 +353,9 @@ pub(crate) fn limit(
     let full = end(a, 1.0)?;
     let mut beta = 1.0f32;
     let mut kept = full;
-    // (an end that overflowed to NaN, an infinite kinetic energy against an infinite potential,
-    // is scaled like one above the start: compared as `full > start` it went through whole)
+    // (an end that overflowed to NaN, as a diverged solve's `Δv` on one vertex makes its kinetic
+    // and elastic energy overflow, is scaled like one above the start: compared as
+    // `full > start` it went through whole)
     if full.is_nan() || full > start {
         beta = 0.0;
         let mut tried = 1.0f32;
