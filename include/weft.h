@@ -1015,7 +1015,10 @@ typedef struct WeftStepStats {
      */
     uint32_t iterations;
     /**
-     * Largest final relative residual over substeps.
+     * Largest final relative residual over substeps, `sqrt(rᵀ P r / δ₀)` (`P` the
+     * preconditioner, `δ₀` the same measure of the substep's first right-hand side). A solve
+     * also stops at an absolute floor (a cloth near rest, whose right-hand side is tiny): there
+     * it is converged with a relative residual above the tolerance, even above 1.
      */
     float residual;
     /**

@@ -233,7 +233,10 @@ pub struct WeftColliderDef {
 pub struct WeftStepStats {
     /// Linear-solver iterations, summed over substeps.
     pub iterations: u32,
-    /// Largest final relative residual over substeps.
+    /// Largest final relative residual over substeps, `sqrt(rᵀ P r / δ₀)` (`P` the
+    /// preconditioner, `δ₀` the same measure of the substep's first right-hand side). A solve
+    /// also stops at an absolute floor (a cloth near rest, whose right-hand side is tiny): there
+    /// it is converged with a relative residual above the tolerance, even above 1.
     pub residual: f32,
     /// 1 when every substep's solve reached `settings.tolerance` (0: it stopped at
     /// `max_iterations`; the step is still valid, only less accurate).

@@ -91,7 +91,10 @@ pub struct StepStats {
     /// (`iterations − first_iterations`) went to the solves after contacts were let go or
     /// engaged, which start from the first solve's answer and cost a few each.
     pub first_iterations: u32,
-    /// Largest final relative residual over substeps.
+    /// Largest final relative residual over substeps, `sqrt(rᵀ P r / δ₀)` (`P` the
+    /// preconditioner, `δ₀` the same measure of the substep's first right-hand side). A solve
+    /// also stops at an absolute floor (a cloth near rest, whose right-hand side is tiny): there
+    /// it is converged with a relative residual above the tolerance, even above 1.
     pub residual: f32,
     /// Every substep's solve reached the tolerance.
     pub converged: bool,
