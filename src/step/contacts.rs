@@ -396,6 +396,16 @@ impl<'c> Placed<'c> {
         let allowed = self.allowance(p, extra);
         (depth > allowed).then_some((prox.normal, depth - allowed))
     }
+
+    /// Whether projecting a vertex that began the substep at `start` out of this collider is a
+    /// push from outside, which the energy balance counts as input: the collider moves, or the
+    /// vertex began deeper than [`Placed::allowance`] with `depenetration` (what the
+    /// depenetration speed moves in the substep). Otherwise the projection is the step's own
+    /// ([`project`]'s still pass, and what the energy-limited end weighs of it,
+    /// [`place_outside_still`]).
+    fn pushes(&self, start: Vec3A, depenetration: f32) -> bool {
+        self.col.previous != self.col.shape || self.beyond_allowance(start, depenetration).is_some()
+    }
 }
 
 /// Colliders placed beforehand, this many at most (a world usually has a few); the others
@@ -1490,10 +1500,7 @@ fn project(
             if shape.proximity(*xi).distance >= col.thickness {
                 continue;
             }
-            let moving = col.previous != col.shape;
-            if pass == Pass::Still
-                && (moving || placed.beyond_allowance(start, depenetration).is_some())
-            {
+            if pass == Pass::Still && placed.pushes(start, depenetration) {
                 pushes = true;
                 continue;
             }
@@ -1575,12 +1582,9 @@ pub(crate) fn place_outside_still(
         }
         let mut spare = None;
         for (k, col) in sweep.colliders.iter().enumerate() {
-            if col.previous != col.shape {
-                continue;
-            }
             let placed = sweep.placed(k, col, &mut spare);
             if placed.after.proximity(*xi).distance >= col.thickness
-                || placed.beyond_allowance(start, depenetration).is_some()
+                || placed.pushes(start, depenetration)
             {
                 continue;
             }
