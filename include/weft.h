@@ -1048,7 +1048,9 @@ typedef struct WeftStepStats {
     uint32_t redone;
     /**
      * Energy (J) the step then still took out: of the kinetic energy at the end, or by the
-     * energy-limited substeps (`limited`); 0 for a sound step.
+     * energy-limited substeps (`limited`); or, with no redo, of the kinetic energy of a step
+     * within its own round-off whose gains since the lowest level the cloth has been at add
+     * up to more than the round-off; 0 for a sound step.
      */
     float energy_removed;
     /**

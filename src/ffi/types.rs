@@ -254,7 +254,9 @@ pub struct WeftStepStats {
     /// energy-limited (`limited`).
     pub redone: u32,
     /// Energy (J) the step then still took out: of the kinetic energy at the end, or by the
-    /// energy-limited substeps (`limited`); 0 for a sound step.
+    /// energy-limited substeps (`limited`); or, with no redo, of the kinetic energy of a step
+    /// within its own round-off whose gains since the lowest level the cloth has been at add
+    /// up to more than the round-off; 0 for a sound step.
     pub energy_removed: f32,
     /// 1 when even the energy-limited attempt (`limited`) gained more energy than the kinetic
     /// energy could give back, so the world held the cloth still for this step instead:

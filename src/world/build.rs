@@ -93,6 +93,7 @@ impl<'a> World<'a> {
             total_mass: 0.0,
             calm_frames: 0,
             level: None,
+            drift: None,
             last_input: (0.0, 0.0),
             asleep: false,
             last: StepStats::default(),

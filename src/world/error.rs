@@ -111,6 +111,8 @@ pub struct StepStats {
     pub redone: u32,
     /// Energy (J) taken out because the step still gained it without input after its redos:
     /// out of the kinetic energy at the end, or by the energy-limited substeps (`limited`);
+    /// or, with no redo, out of the kinetic energy of a step within its own round-off whose
+    /// gains since the lowest level the cloth has been at add up to more than the round-off;
     /// 0 for a sound step.
     pub energy_removed: f32,
     /// The energy balance of the step (J): end energy − start energy − work of external
