@@ -123,8 +123,8 @@ pub(crate) struct Drift {
 }
 
 impl Drift {
-    /// A drift measured from state `level`.
-    pub fn from(level: &Level) -> Self {
+    /// A drift measured since state `level`, the reference.
+    pub fn since(level: &Level) -> Self {
         Drift {
             gained: 0.0,
             reference_noise: level.noise,
@@ -148,7 +148,7 @@ impl Drift {
     pub fn after(&self, gain: f64, end: &Level, input_noise: f64) -> Self {
         let (gained, floor) = self.with(gain, end, input_noise);
         if gained <= 0.0 {
-            Drift::from(end)
+            Drift::since(end)
         } else {
             Drift {
                 gained: gained.min(floor),
@@ -327,7 +327,7 @@ mod tests {
             noise: 1.0,
             excess: 1.0,
         };
-        let mut drift = Drift::from(&at(10.0));
+        let mut drift = Drift::since(&at(10.0));
         let mut energy = 10.0;
         for step in 1..=4 {
             energy += 0.6;

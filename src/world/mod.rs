@@ -1201,7 +1201,7 @@ impl<'a> World<'a> {
                 monitor::constant_force_work(&self.a, &counts, &self.settings)?;
             let gain = end.energy - start.energy - gravity - input;
             let floor = start.noise + end.excess + gravity_noise + input_noise;
-            let drift = self.drift.unwrap_or_else(|| monitor::Drift::from(&start));
+            let drift = self.drift.unwrap_or_else(|| monitor::Drift::since(&start));
             stats.redone = redone;
             stats.energy_gain = gain as f32;
             stats.limited = limiting.is_some();
