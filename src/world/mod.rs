@@ -1302,7 +1302,9 @@ impl<'a> World<'a> {
     /// engine put it there, or a collider moved or appeared around it) left the next step the
     /// same push out of it to fail on, from the same state: a stiff strip pinned at a vertex
     /// inside a sphere was held still at every step, its other vertices inside for good
-    /// (adversarial scene 16049: all 300 of its steps; `tests/hard_cases.rs`).
+    /// (adversarial scene 16049: all 300 of its steps; `tests/hard_cases.rs`). A hold whose
+    /// pins put the state beyond what `f32` energies hold fails as an overflowed substep does
+    /// ([`StepError::NonFiniteState`]).
     fn stop(&mut self, pins_on: bool, stats: StepStats) -> Result<StepStats, StepError> {
         self.restore_start(false);
         let counts = self.counts();
@@ -1316,7 +1318,15 @@ impl<'a> World<'a> {
         if pins_on || outside {
             self.refresh_frames(8);
         }
-        self.level = Some(monitor::level(&self.a, &counts, &self.settings)?);
+        // Pins put on targets far beyond what `f32` energies hold (a pin moved 1e9 m in one
+        // step, whose attempts all gained without breaking down) overflow the state as a
+        // substep can: the step fails with its start kept (the caller restores it), as for a
+        // substep's overflow. Returned as a hold, the world stepped on from an infinite energy.
+        let level = monitor::level(&self.a, &counts, &self.settings)?;
+        if !(level.energy.is_finite() && level.noise.is_finite()) {
+            return Err(StepError::NonFiniteState);
+        }
+        self.level = Some(level);
         // held still at rest: the balance since starts here
         self.drift = None;
         Ok(StepStats {
