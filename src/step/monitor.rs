@@ -98,6 +98,14 @@ pub(crate) struct Level {
     pub excess: f64,
 }
 
+impl Level {
+    /// Whether the state can be judged: its energy and its round-off are finite (a state whose
+    /// energy overflows `f32` reads `∞ ≤ ∞` in the balance, and every later step fails from it).
+    pub fn is_finite(&self) -> bool {
+        self.energy.is_finite() && self.noise.is_finite()
+    }
+}
+
 /// The balance over the steps since the lowest level the cloth has been at (net of input): what
 /// each step's floor forgave adds up here, and the sum is held to the round-off of that lowest
 /// state and of the current one, which does not grow with the number of steps between them. A

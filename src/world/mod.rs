@@ -1155,7 +1155,7 @@ impl<'a> World<'a> {
                 .run_substeps(dt, substeps, solver, tolerance, limiting.is_some())
                 .and_then(|stats| {
                     let end = monitor::level(&self.a, &counts, &self.settings)?;
-                    if end.energy.is_finite() && end.noise.is_finite() {
+                    if end.is_finite() {
                         Ok((stats, end))
                     } else {
                         Err(StepError::NonFiniteState)
@@ -1199,7 +1199,10 @@ impl<'a> World<'a> {
             let (input, input_noise) = self.last_input;
             let (gravity, gravity_noise) =
                 monitor::constant_force_work(&self.a, &counts, &self.settings)?;
-            let gain = end.energy - start.energy - gravity - input;
+            // the balance of a state `level` ending the attempt: its energy beyond the start's
+            // and the input's
+            let balance = |level: &monitor::Level| level.energy - start.energy - gravity - input;
+            let gain = balance(&end);
             let floor = start.noise + end.excess + gravity_noise + input_noise;
             let drift = self.drift.unwrap_or_else(|| monitor::Drift::since(&start));
             stats.redone = redone;
@@ -1226,7 +1229,7 @@ impl<'a> World<'a> {
                 } else {
                     end
                 };
-                let gain = end.energy - start.energy - gravity - input;
+                let gain = balance(&end);
                 self.level = Some(end);
                 self.drift = Some(drift.after(gain, &end, step_noise));
                 break stats;
@@ -1279,7 +1282,7 @@ impl<'a> World<'a> {
             }
             stats.energy_removed += removed as f32;
             let end = monitor::level(&self.a, &counts, &self.settings)?;
-            let gain = end.energy - start.energy - gravity - input;
+            let gain = balance(&end);
             self.level = Some(end);
             self.drift = Some(drift.after(gain, &end, step_noise));
             break stats;
@@ -1323,7 +1326,7 @@ impl<'a> World<'a> {
         // substep can: the step fails with its start kept (the caller restores it), as for a
         // substep's overflow. Returned as a hold, the world stepped on from an infinite energy.
         let level = monitor::level(&self.a, &counts, &self.settings)?;
-        if !(level.energy.is_finite() && level.noise.is_finite()) {
+        if !level.is_finite() {
             return Err(StepError::NonFiniteState);
         }
         self.level = Some(level);
