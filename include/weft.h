@@ -202,7 +202,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3573104
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3835232
 
 /**
  * A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
@@ -244,6 +244,12 @@
  * `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
  */
 #define WEFT_SOLVER_BLOCK_JACOBI 1
+
+/**
+ * `weft_world_set_solver`: `WEFT_SOLVER_MULTIGRID` with its finest level smoothed along lines
+ * of dominant couplings, for materials much stiffer along one direction than across it.
+ */
+#define WEFT_SOLVER_MULTIGRID_LINES 2
 
 /**
  * `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
@@ -1394,9 +1400,11 @@ WeftResult weft_world_set_effects(struct WeftWorld *world,
 
 /**
  * Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
- * default: CG iterations that do not grow with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
- * cheaper cycle whose iteration count grows with the mesh; a step whose block-Jacobi solves
- * did not converge and that gained energy is redone with the multilevel one); any other value
+ * default: CG iterations that do not grow with the mesh), `WEFT_SOLVER_MULTIGRID_LINES` (the
+ * same, smoothed along lines of dominant couplings: fewer iterations on strongly anisotropic
+ * materials, the same elsewhere) or `WEFT_SOLVER_BLOCK_JACOBI` (the cheaper cycle whose
+ * iteration count grows with the mesh; a step whose block-Jacobi solves did not converge and
+ * that gained energy is redone with the multilevel one); any other value
  * is `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
  *
  * # Safety

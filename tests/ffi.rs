@@ -942,6 +942,10 @@ fn pins_colliders_settings_and_steps_report_their_faults() {
         WeftResult::Ok
     );
     assert_eq!(
+        unsafe { weft_world_set_solver(w, WEFT_SOLVER_MULTIGRID_LINES, ptr::null_mut()) },
+        WeftResult::Ok
+    );
+    assert_eq!(
         unsafe { weft_world_set_solver(w, WEFT_SOLVER_MULTIGRID, ptr::null_mut()) },
         WeftResult::Ok
     );

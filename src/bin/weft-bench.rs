@@ -1,7 +1,7 @@
 //! weft-bench: per-step cost of the runtime on N×N-vertex sheets.
 //!
 //! `cargo run --release --bin weft-bench -- --grid N [--steps S] [--effects LIST]
-//! [--solver multigrid|jacobi] [--tolerance T] [--json]`
+//! [--solver multigrid|lines|jacobi] [--tolerance T] [--json]`
 //!
 //! A 1 m × 1 m sheet of a bundled anisotropic cell (homogenized here, through the same blob the
 //! engine would load), hanging with two adjacent corners pinned, dt = 1/60 s, a sphere in front
@@ -45,7 +45,8 @@ struct Args {
     /// configuration, so an effects table shows each effect's own cost.
     #[arg(long)]
     iterations: Option<u32>,
-    /// The CG preconditioner: `multigrid` (the default) or `jacobi` (block Jacobi).
+    /// The CG preconditioner: `multigrid` (the default), `lines` (multigrid smoothed along lines
+    /// of dominant couplings) or `jacobi` (block Jacobi).
     #[arg(long, default_value = "multigrid")]
     solver: String,
     /// Print one JSON object.
@@ -125,7 +126,10 @@ fn parse_solver(name: &str) -> Result<Solver, String> {
     match name {
         "multigrid" | "mg" => Ok(Solver::Multigrid),
         "jacobi" | "block-jacobi" => Ok(Solver::BlockJacobi),
-        _ => Err(format!("unknown solver '{name}' (multigrid or jacobi)")),
+        "lines" | "multigrid-lines" => Ok(Solver::MultigridLines),
+        _ => Err(format!(
+            "unknown solver '{name}' (multigrid, lines or jacobi)"
+        )),
     }
 }
 

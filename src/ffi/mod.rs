@@ -127,7 +127,7 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// in bytes, a multiple of `WEFT_WORLD_MEMORY_ALIGN`: lets a default-capacity world live in a
 /// static array. It changes between library versions; query `weft_world_memory_size` for any
 /// other capacity.
-pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_573_104;
+pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_835_232;
 
 /// A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
 /// of this many metres (`weft_world_get_origin`); a step moves it once the cloth's centre is
@@ -157,6 +157,9 @@ pub const WEFT_STRAIN_GREEN: u32 = 1;
 pub const WEFT_SOLVER_MULTIGRID: u32 = 0;
 /// `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
 pub const WEFT_SOLVER_BLOCK_JACOBI: u32 = 1;
+/// `weft_world_set_solver`: `WEFT_SOLVER_MULTIGRID` with its finest level smoothed along lines
+/// of dominant couplings, for materials much stiffer along one direction than across it.
+pub const WEFT_SOLVER_MULTIGRID_LINES: u32 = 2;
 
 /// `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
 /// vertex normals (smooth; about 1.8 × the cost of positions alone: 1.72 × measured by

@@ -531,9 +531,11 @@ pub unsafe extern "C" fn weft_world_set_effects(
 }
 
 /// Chooses the preconditioner of the step's linear solver: `WEFT_SOLVER_MULTIGRID` (the
-/// default: CG iterations that do not grow with the mesh) or `WEFT_SOLVER_BLOCK_JACOBI` (the
-/// cheaper cycle whose iteration count grows with the mesh; a step whose block-Jacobi solves
-/// did not converge and that gained energy is redone with the multilevel one); any other value
+/// default: CG iterations that do not grow with the mesh), `WEFT_SOLVER_MULTIGRID_LINES` (the
+/// same, smoothed along lines of dominant couplings: fewer iterations on strongly anisotropic
+/// materials, the same elsewhere) or `WEFT_SOLVER_BLOCK_JACOBI` (the cheaper cycle whose
+/// iteration count grows with the mesh; a step whose block-Jacobi solves did not converge and
+/// that gained energy is redone with the multilevel one); any other value
 /// is `WEFT_RESULT_INVALID_ARGUMENT` (`detail.what` = "solver"). Takes effect at the next step.
 ///
 /// # Safety
@@ -553,6 +555,7 @@ pub unsafe extern "C" fn weft_world_set_solver(
                 let solver = match solver {
                     WEFT_SOLVER_MULTIGRID => Solver::Multigrid,
                     WEFT_SOLVER_BLOCK_JACOBI => Solver::BlockJacobi,
+                    WEFT_SOLVER_MULTIGRID_LINES => Solver::MultigridLines,
                     _ => return Err(invalid(c"solver")),
                 };
                 w.world.set_solver(solver);

@@ -19,7 +19,7 @@ fn quad(d: &[f32], at: usize) -> Option<glam::Vec4> {
 }
 
 #[inline(always)]
-fn sym_mul(d: &[f32], v: Vec3A) -> Vec3A {
+pub(super) fn sym_mul(d: &[f32], v: Vec3A) -> Vec3A {
     // `[xx, xy, xz, yy, yz, zz]`: the columns `(xx, xy, xz)`, `(xy, yy, yz)`, `(xz, yz, zz)` are
     // lanes 0 1 2 of the loads from 0, 1 (lanes 0 2 3) and 2 (lanes 0 2 3): three loads and
     // two shuffles instead of six scalar loads and their inserts.
@@ -54,7 +54,7 @@ fn sym_add(d: &mut [f32], m: &Mat3A, s: f32) {
 }
 
 #[inline(always)]
-fn sym_to_mat(d: &[f32]) -> Mat3A {
+pub(super) fn sym_to_mat(d: &[f32]) -> Mat3A {
     let &[xx, xy, xz, yy, yz, zz] = d else {
         return Mat3A::NAN;
     };
@@ -135,7 +135,7 @@ fn aligned(blocks: &mut [f32]) -> &mut [f32] {
 /// with a relative ridge ([`RIDGE`]): exactly symmetric, SPD, finite. A zero or non-finite
 /// block (a fully constrained or broken direction) gives the zero block (decoupled); one that
 /// is not positive even with the ridge falls back to the inverse of its positive diagonal.
-fn inverse_sym(m: &Mat3A) -> Sym {
+pub(super) fn inverse_sym(m: &Mat3A) -> Sym {
     let [m00, m10, m20, m01, m11, m21, m02, m12, m22] = m.to_cols_array().map(f64::from);
     let (xy, xz, yz) = (0.5 * (m01 + m10), 0.5 * (m02 + m20), 0.5 * (m12 + m21));
     let scale = m00.max(m11).max(m22);
@@ -301,6 +301,8 @@ pub struct Multigrid<'a> {
     options: Options,
     /// The finest level smooths with its scalar couplings lumped (set up by every setup).
     is_lumped: bool,
+    /// The finest level's lines ([`Smoother::Lines`]; set up by every setup).
+    lines: usize,
 }
 
 impl<'a> Multigrid<'a> {
@@ -367,7 +369,7 @@ impl<'a> Multigrid<'a> {
         }
         if a.off.len() < l0.nnz
             || a.pattern.cols.len() < l0.nnz
-            || blocks.len() < FINE_FLOATS * n
+            || blocks.len() < fine_floats(n)
             || dense.len() < if h.dense { DENSE_LEN } else { 0 }
             || filter.is_some_and(|f| f.len() != n)
         {
@@ -406,6 +408,7 @@ impl<'a> Multigrid<'a> {
             is_dense: h.dense,
             options,
             is_lumped: false,
+            lines: 0,
         };
         mg.options.sweeps = mg.options.sweeps.max(1);
         mg.options.coarse_sweeps = mg.options.coarse_sweeps.max(1);
@@ -442,8 +445,15 @@ impl<'a> Multigrid<'a> {
     /// some ([`Options::lumped`]; whether they are weak enough is [`Self::lumped`]).
     fn lumping(&self) -> bool {
         self.options.lumped
-            && self.options.smoother == Smoother::Jacobi
+            && self.options.smoother != Smoother::GaussSeidel
             && !self.a.scalars.is_empty()
+    }
+
+    /// Whether the finest level needs its scalar couplings' weights `w_i = Σ_j |s_ij|` (in
+    /// `blocks`): to lump them ([`Self::lumping`]), or for the lines, whose `T` always holds
+    /// them on its diagonal ([`Smoother::Lines`]).
+    fn weighing(&self) -> bool {
+        self.lumping() || (self.options.smoother == Smoother::Lines && !self.a.scalars.is_empty())
     }
 
     /// Whether the finest level smooths with its scalar couplings lumped: asked for
@@ -464,16 +474,59 @@ impl<'a> Multigrid<'a> {
     /// `A_ii`, plus its lumped scalar couplings when [`Self::lumped`] (their weights already in
     /// `blocks`), filtered.
     fn fine_inverse(&self, i: usize, d: &Mat3A) -> Result<Sym, MgError> {
-        let d = if self.is_lumped {
-            let n = self.a.diag.len();
-            let w = *part(self.blocks, 6 * n, n)?
-                .get(i)
-                .ok_or(MgError::LengthMismatch)?;
-            *d + Mat3A::from_diagonal(glam::Vec3::splat(w))
-        } else {
-            *d
+        let n = self.a.diag.len();
+        Ok(inverse_sym(&fine_block(
+            self.blocks,
+            n,
+            self.filter,
+            self.is_lumped,
+            i,
+            d,
+        )?))
+    }
+
+    /// The finest level's lines ([`Smoother::Lines`]): made from the matrix (`lines::build`),
+    /// or, with `changed`, those of the changed vertices factored again (the lines of the last
+    /// full setup); `Sₖ⁻¹` in the inverses' place. Returns whether there are lines: where no
+    /// vertex is linked the level is smoothed by block Jacobi (`self.lines` is 0), and its
+    /// inverses are for the caller to make.
+    fn setup_lines(&mut self, changed: Option<&[u32]>) -> Result<bool, MgError> {
+        let a = self.a;
+        let n = a.diag.len();
+        let layout = lines::Layout::new(n);
+        let count = match changed {
+            None => lines::build(&a, self.blocks, &layout)?,
+            Some(changed) => {
+                let count = lines::count(self.blocks, &layout)?;
+                if count < n {
+                    lines::mark(self.blocks, &layout, changed)?;
+                }
+                count
+            }
         };
-        Ok(inverse_sym(&filtered(self.filter, i, &d)))
+        self.lines = if count < n { count } else { 0 };
+        if self.lines == 0 {
+            return Ok(false);
+        }
+        let filter = self.filter;
+        let weighed = !a.scalars.is_empty();
+        let diagonal = |blocks: &[f32], i: usize| {
+            let d = a.diag.get(i).ok_or(MgError::LengthMismatch)?;
+            fine_block(blocks, n, filter, weighed, i, d)
+        };
+        let single = self.options.omega / LINE_OMEGA;
+        let only = changed.is_some();
+        lines::factor(
+            a.off,
+            filter,
+            diagonal,
+            self.blocks,
+            &layout,
+            self.lines,
+            single,
+            only,
+        )?;
+        Ok(true)
     }
 
     /// Finest level: `D̂_i⁻¹` for the smoother (after the lumped weights, if any), which
@@ -481,13 +534,16 @@ impl<'a> Multigrid<'a> {
     fn setup_fine(&mut self) -> Result<(), MgError> {
         let a = self.a;
         let n = a.diag.len();
-        if self.lumping() {
+        if self.weighing() {
             lump(&a.scalars, part_mut(self.blocks, 6 * n, n)?)?;
         }
         self.is_lumped = self.lumped();
-        for (i, d) in a.diag.iter().enumerate() {
-            let inv = self.fine_inverse(i, d)?;
-            part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+        let lined = self.options.smoother == Smoother::Lines && self.setup_lines(None)?;
+        if !lined {
+            for (i, d) in a.diag.iter().enumerate() {
+                let inv = self.fine_inverse(i, d)?;
+                part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+            }
         }
         // (all free without a filter: a later `renew` with one changes only its vertices)
         let free = free_flags_mut(self.blocks, n)?;
@@ -514,10 +570,13 @@ impl<'a> Multigrid<'a> {
         let a = self.a;
         // the weights are the earlier setup's, of the same matrix
         self.is_lumped = self.lumped();
-        for &v in changed {
-            let i = v as usize;
-            let inv = self.fine_inverse(i, a.diag.get(i).ok_or(MgError::LengthMismatch)?)?;
-            part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+        let lined = self.options.smoother == Smoother::Lines && self.setup_lines(Some(changed))?;
+        if !lined {
+            for &v in changed {
+                let i = v as usize;
+                let inv = self.fine_inverse(i, a.diag.get(i).ok_or(MgError::LengthMismatch)?)?;
+                part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
+            }
         }
         if let Some(filter) = self.filter {
             let n = a.diag.len();
@@ -704,6 +763,7 @@ impl<'a> Multigrid<'a> {
             count,
             is_dense,
             options,
+            lines: line_count,
             ..
         } = self;
         let ops = Ops {
@@ -729,8 +789,25 @@ impl<'a> Multigrid<'a> {
             (*a, &[])
         };
         let a = &a;
-        // Pre-smoothing from z = 0, on the filtered input.
-        match ops.options.smoother {
+        // Pre-smoothing from z = 0, on the filtered input. The line smoother where the setup
+        // made lines, else block Jacobi (for `Smoother::Lines` too: no vertex was linked).
+        let layout = lines::Layout::new(n);
+        let line_count = *line_count;
+        let smoother = match ops.options.smoother {
+            Smoother::Lines if line_count == 0 => Smoother::Jacobi,
+            s => s,
+        };
+        match smoother {
+            Smoother::Lines => {
+                for (i, (ti, &ri)) in t0.iter_mut().zip(r0).enumerate() {
+                    *ti = f.at(i, ri);
+                }
+                lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, false)?;
+                for _ in 1..nu {
+                    line_residual(a, w, f, r0, z0, t0)?;
+                    lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, true)?;
+                }
+            }
             Smoother::Jacobi => {
                 for (i, ((zi, &ri), p)) in
                     z0.iter_mut().zip(r0).zip(inv.chunks_exact(6)).enumerate()
@@ -777,7 +854,11 @@ impl<'a> Multigrid<'a> {
             }
         }
         for _ in 0..nu {
-            match ops.options.smoother {
+            match smoother {
+                Smoother::Lines => {
+                    line_residual(a, w, f, r0, z0, t0)?;
+                    lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, true)?;
+                }
                 Smoother::Jacobi => {
                     // The residual `S (r − A z)` and the sweep in one pass (it is not kept).
                     a.mul(z0, t0).map_err(|_| MgError::LengthMismatch)?;
@@ -927,7 +1008,7 @@ impl Ops<'_> {
         let (r, z, t, rest) = split3(vecs, lv.n)?;
         let (omega, nu) = (self.options.omega, self.options.sweeps);
         match self.options.smoother {
-            Smoother::Jacobi => {
+            Smoother::Jacobi | Smoother::Lines => {
                 for ((zi, &ri), d) in z.iter_mut().zip(r.iter()).zip(inv.chunks_exact(6)) {
                     *zi = omega * sym_mul(d, ri);
                 }
@@ -971,7 +1052,7 @@ impl Ops<'_> {
         for _ in 0..nu {
             coarse_residual(diag, rs, cols, off, r, z, t)?;
             match self.options.smoother {
-                Smoother::Jacobi => smooth_coarse(inv, omega, t, z),
+                Smoother::Jacobi | Smoother::Lines => smooth_coarse(inv, omega, t, z),
                 Smoother::GaussSeidel => backward(inv, rs, cols, off, t, z)?,
             }
         }
@@ -998,7 +1079,7 @@ impl Ops<'_> {
         }
         let omega = self.options.omega;
         match self.options.smoother {
-            Smoother::Jacobi => {
+            Smoother::Jacobi | Smoother::Lines => {
                 for ((zi, &ri), d) in z.iter_mut().zip(r.iter()).zip(inv.chunks_exact(6)) {
                     *zi = omega * sym_mul(d, ri);
                 }
@@ -1035,6 +1116,23 @@ fn dot(a: &[Vec3A], b: &[Vec3A]) -> f64 {
     a.iter()
         .zip(b)
         .fold(0.0, |s, (&x, &y)| s + crate::pcg::dot64(x, y))
+}
+
+/// `t = S (r − Ã z)` (the smoothing operator: `A`, or with its scalar couplings' weights `w`
+/// lumped), for the line smoother to solve in place.
+fn line_residual<F: Filter>(
+    a: &BlockMatrix<'_>,
+    w: &[f32],
+    f: &F,
+    r: &[Vec3A],
+    z: &[Vec3A],
+    t: &mut [Vec3A],
+) -> Result<(), MgError> {
+    a.mul(z, t).map_err(|_| MgError::LengthMismatch)?;
+    for (i, (ti, (&zi, &ri))) in t.iter_mut().zip(z.iter().zip(r)).enumerate() {
+        *ti = f.at(i, ri - weighted(*ti, w, i, zi));
+    }
+    Ok(())
 }
 
 /// `t = S (r − A z)` on the finest level, with `A`'s lumped scalar couplings `w` (empty:
@@ -1212,6 +1310,28 @@ fn level_ops<'b>(
         part(index, lv.rs, lv.n + 1)?,
         part(index, lv.cols, lv.nnz)?,
     ))
+}
+
+/// The finest level's smoothing block of vertex `i` (diagonal block `d`, `n` vertices):
+/// `A_ii`, plus its lumped scalar couplings when `lumped` (their weights in `blocks`),
+/// filtered.
+fn fine_block(
+    blocks: &[f32],
+    n: usize,
+    filter: Option<&[Mat3A]>,
+    lumped: bool,
+    i: usize,
+    d: &Mat3A,
+) -> Result<Mat3A, MgError> {
+    let d = if lumped {
+        let w = *part(blocks, 6 * n, n)?
+            .get(i)
+            .ok_or(MgError::LengthMismatch)?;
+        *d + Mat3A::from_diagonal(glam::Vec3::splat(w))
+    } else {
+        *d
+    };
+    Ok(filtered(filter, i, &d))
 }
 
 /// Vertex `i`'s filtered diagonal block `S A_ii S + τ (I − S)`: the constrained directions
@@ -2011,6 +2131,16 @@ mod tests {
                 coarse_sweeps: 2,
                 ..Options::V_CYCLE
             },
+            Options {
+                smoother: Smoother::Lines,
+                ..Options::V_CYCLE
+            },
+            Options {
+                smoother: Smoother::Lines,
+                sweeps: 2,
+                cycle: 2,
+                ..Options::V_CYCLE
+            },
         ];
         for (f, options) in [None, Some(&filter[..])]
             .into_iter()
@@ -2176,6 +2306,68 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// An anisotropic cloth (the springs along `u` 100× as stiff as the others): the line
+    /// smoother ([`Smoother::Lines`]) solves it in half of block Jacobi's cycles or fewer, to
+    /// the same solution, with pins and contacts too. Its lines are the grid's rows (along
+    /// the strong springs), found from the matrix alone.
+    #[test]
+    fn lines_smooth_an_anisotropic_cloth_in_few_iterations() {
+        let mut rng = Lcg(8);
+        let k = 41;
+        let (pos, tris) = grid_cloth(&mut rng, k, false);
+        let mut c = cloth(&mut rng, &pos, &tris, 400.0);
+        // stiffen the springs along u: add 99× each one's own block
+        let p = c.sys.op.pattern();
+        for i in 0..pos.len() {
+            for (kk, j) in p.upper(i) {
+                let d = pos[j] - pos[i];
+                if d.x.abs() > 0.9 * d.length() {
+                    let b = 99.0 * c.sys.off[kk];
+                    c.sys.off[kk] += b;
+                    c.sys.diag[i] -= b;
+                    c.sys.diag[j] -= b;
+                }
+            }
+        }
+        let n = pos.len();
+        let filter = constraints(&mut rng, n);
+        let b: Vec<Vec3A> = (0..n)
+            .map(|_| Vec3A::new(0.0, 0.0, -1.0) + 0.1 * rng.vec())
+            .collect();
+        let z = vec![Vec3A::ZERO; n];
+        let a = c.sys.matrix();
+        for f in [None, Some(&filter[..])] {
+            let mut counts = Vec::new();
+            let mut solutions = Vec::new();
+            for smoother in [Smoother::Jacobi, Smoother::Lines] {
+                let options = Options {
+                    smoother,
+                    ..Options::default()
+                };
+                let (mut mem, _) = built(&c.sys, Some(graph(&c)));
+                let mut mg = Multigrid::new(mem.mem(), a, f, options).unwrap();
+                let mut x = z.clone();
+                let mut w = Scratch::new(n);
+                let st =
+                    solve_with(&a, &mut mg, f, &b, &mut x, &settings(1e-5, 500), w.work()).unwrap();
+                assert!(st.converged, "{smoother:?}: {st:?}");
+                counts.push(st.iterations);
+                solutions.push(x);
+            }
+            // measured 30 against 64, and 43 against 124 with pins and contacts (the coarse
+            // levels' aggregates are not lines: they smooth the anisotropy left to them by
+            // block Jacobi)
+            assert!(
+                2 * counts[1] <= counts[0],
+                "lines {} against block Jacobi {} iterations",
+                counts[1],
+                counts[0]
+            );
+            let e = rel_diff(&solutions[1], &solutions[0]);
+            assert!(e <= 1e-3, "{e:e}");
         }
     }
 

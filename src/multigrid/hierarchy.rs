@@ -125,7 +125,7 @@ pub fn build(
     // Operators and vectors of the coarse levels (after the finest level's inverse and lumped
     // floats); a level that does not fit the budgets is dropped.
     // (On a `Mat3A` boundary of the aligned pool: `floats()` is a multiple of 4 too.)
-    let (mut blk, mut vec) = ((FINE_FLOATS * n0).next_multiple_of(4), 0usize);
+    let (mut blk, mut vec) = (fine_floats(n0).next_multiple_of(4), 0usize);
     let mut keep = 1;
     for lv in levels.iter_mut().take(count).skip(1) {
         let need_b = lv.floats();

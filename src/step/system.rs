@@ -157,7 +157,7 @@ pub(crate) fn solve(
     let dv = live_mut(a.dv, n)?;
     let rhs = live(a.rhs, n)?;
     let mut result = Err(pcg::PcgError::Breakdown);
-    if c.solver == Solver::Multigrid {
+    if c.solver.is_multilevel() {
         // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
         // the forces stage): the coarsest factor first, the levels' vectors after it (a mesh
         // whose levels do not fit steps with block Jacobi).
@@ -171,7 +171,14 @@ pub(crate) fn solve(
             dense: bytemuck::cast_slice_mut(dense),
             vectors,
         };
-        let options = multigrid::Options::default();
+        let options = multigrid::Options {
+            smoother: if c.solver == Solver::MultigridLines {
+                multigrid::Smoother::Lines
+            } else {
+                multigrid::Smoother::Jacobi
+            },
+            ..multigrid::Options::default()
+        };
         let built = match resume {
             Some(r) if r.operators_kept => {
                 let listed: &[u32] = bytemuck::cast_slice(live(a.w_s, n)?);
@@ -218,7 +225,7 @@ pub(crate) fn solve(
             // broke down (its scratch).
             let own = pcg::Settings {
                 reference: 0.0,
-                product_given: settings.product_given && c.solver != Solver::Multigrid,
+                product_given: settings.product_given && !c.solver.is_multilevel(),
                 ..settings
             };
             let stats = pcg::solve(&op, live(a.precond, n)?, filter, rhs, dv, &own, work)

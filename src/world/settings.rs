@@ -172,4 +172,20 @@ pub enum Solver {
     /// ([`Settings::per_node_warping`]) always uses block Jacobi.
     #[default]
     Multigrid,
+    /// [`Solver::Multigrid`] with its finest level smoothed along lines of vertices whose
+    /// couplings dominate their others (`multigrid::Smoother::Lines`), where a material is
+    /// much stiffer along one direction than across it; elsewhere it is [`Solver::Multigrid`],
+    /// bit for bit. Measured on weft-bench's scene at tolerance 1e-3 (2026-11-29), CG
+    /// iterations a step at 21 / 41 / 81 per side: the `ribbed` cell (23:1) 28.5 / 49.2 / 85.4
+    /// → 13.1 / 24.2 / 44.0, `stripes` (2.8:1) 16.4 / 23.5 / 29.9 → 9.9 / 14.7 / 21.4; the
+    /// isotropic and weave-like cells make no lines. Not yet the default (README, "Line
+    /// smoothing").
+    MultigridLines,
+}
+
+impl Solver {
+    /// Whether the multilevel preconditioner runs (with either smoother).
+    pub fn is_multilevel(self) -> bool {
+        matches!(self, Solver::Multigrid | Solver::MultigridLines)
+    }
 }

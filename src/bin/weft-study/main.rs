@@ -227,6 +227,7 @@ pub fn solver_name(solver: Solver) -> &'static str {
     match solver {
         Solver::Multigrid => "multigrid",
         Solver::BlockJacobi => "block-jacobi",
+        Solver::MultigridLines => "multigrid-lines",
     }
 }
 
