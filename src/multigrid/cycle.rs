@@ -2318,20 +2318,7 @@ mod tests {
         let mut rng = Lcg(8);
         let k = 41;
         let (pos, tris) = grid_cloth(&mut rng, k, false);
-        let mut c = cloth(&mut rng, &pos, &tris, 400.0);
-        // stiffen the springs along u: add 99× each one's own block
-        let p = c.sys.op.pattern();
-        for i in 0..pos.len() {
-            for (kk, j) in p.upper(i) {
-                let d = pos[j] - pos[i];
-                if d.x.abs() > 0.9 * d.length() {
-                    let b = 99.0 * c.sys.off[kk];
-                    c.sys.off[kk] += b;
-                    c.sys.diag[i] -= b;
-                    c.sys.diag[j] -= b;
-                }
-            }
-        }
+        let c = ribbed(cloth(&mut rng, &pos, &tris, 400.0), &pos);
         let n = pos.len();
         let filter = constraints(&mut rng, n);
         let b: Vec<Vec3A> = (0..n)
@@ -2566,6 +2553,61 @@ mod tests {
         assert_renew_is_new(&c, None, &after, &changed);
     }
 
+    /// With the line smoother, `renew` factors again only the lines of the vertices whose
+    /// filter changed, and that is `new` bit for bit, the cycle's output too.
+    #[test]
+    fn renew_of_lines_is_new_bit_for_bit() {
+        let mut rng = Lcg(33);
+        let (pos, tris) = grid_cloth(&mut rng, 17, false);
+        let c = ribbed(cloth(&mut rng, &pos, &tris, 400.0), &pos);
+        let n = pos.len();
+        let before = constraints(&mut rng, n);
+        let mut after = before.clone();
+        let changed: Vec<u32> = (0..n as u32).filter(|i| i % 19 == 3).collect();
+        for &i in &changed {
+            let i = i as usize;
+            after[i] = if before[i] == Mat3A::IDENTITY {
+                Mat3A::IDENTITY - nn(rng.vec() + Vec3A::Z)
+            } else {
+                Mat3A::IDENTITY
+            };
+        }
+        let options = Options {
+            smoother: Smoother::Lines,
+            ..Options::default()
+        };
+        let (mut renewed, mut fresh, _) =
+            assert_renew_is_new_with(&c, Some(&before), &after, &changed, options);
+        let r: Vec<Vec3A> = (0..n).map(|i| after[i] * rng.vec()).collect();
+        let mut t = vec![Vec3A::ZERO; n];
+        let (mut z1, mut z2) = (vec![Vec3A::ZERO; n], vec![Vec3A::ZERO; n]);
+        let mut a =
+            Multigrid::renew(renewed.mem(), c.sys.matrix(), Some(&after), &[], options).unwrap();
+        assert!(a.lines > 0 && a.lines < n, "{} lines", a.lines);
+        a.apply(&r, &mut z1, &mut t);
+        let mut b = Multigrid::new(fresh.mem(), c.sys.matrix(), Some(&after), options).unwrap();
+        b.apply(&r, &mut z2, &mut t);
+        assert_eq!(z1, z2);
+    }
+
+    /// `c` with its springs along `u` (between vertices of one row of `pos`) 100× as stiff:
+    /// each such coupling block, and its share of the two diagonal blocks, times 100.
+    fn ribbed(mut c: Cloth, pos: &[Vec3A]) -> Cloth {
+        let p = c.sys.op.pattern();
+        for i in 0..pos.len() {
+            for (k, j) in p.upper(i) {
+                let d = pos[j] - pos[i];
+                if d.x.abs() > 0.9 * d.length() {
+                    let b = 99.0 * c.sys.off[k];
+                    c.sys.off[k] += b;
+                    c.sys.diag[i] -= b;
+                    c.sys.diag[j] -= b;
+                }
+            }
+        }
+        c
+    }
+
     /// Sets up `c`'s operators for the filter `before`, renews them for `after` (which differs
     /// at `changed`) and asserts the pool is what a fresh setup for `after` makes, bit for bit.
     /// Returns the renewed memory, the fresh one and the hierarchy's shape.
@@ -2575,7 +2617,16 @@ mod tests {
         after: &[Mat3A],
         changed: &[u32],
     ) -> (Mem, Mem, Info) {
-        let options = Options::default();
+        assert_renew_is_new_with(c, before, after, changed, Options::default())
+    }
+
+    fn assert_renew_is_new_with(
+        c: &Cloth,
+        before: Option<&[Mat3A]>,
+        after: &[Mat3A],
+        changed: &[u32],
+        options: Options,
+    ) -> (Mem, Mem, Info) {
         let (mut renewed, info) = built(&c.sys, Some(graph(c)));
         let mut fresh = built(&c.sys, Some(graph(c))).0;
         Multigrid::new(renewed.mem(), c.sys.matrix(), before, options).unwrap();
