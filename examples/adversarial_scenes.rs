@@ -9,7 +9,8 @@
 //!
 //! `cargo run --release --example adversarial_scenes -- FIRST_SEED COUNT [--sane] [--trace]
 //! [--steps N]` (`--sane`: tolerance 1e-4..1e-2, at least 100 iterations, tables ≤ 1e5 N/m,
-//! kicks ≤ 3 m/s). Not a test: it reports, it does not assert.
+//! kicks ≤ 3 m/s). Not a test: it reports, it does not assert. `SOLVER=jacobi|multigrid|lines`
+//! starts every scene with that solver (a scene's events may still switch it).
 // `6.28` stays (not TAU): it is what the seeds' scenes were drawn with; the rebinding of the
 // scene's parts as `mut` mirrors the scene description.
 #![allow(clippy::approx_constant, clippy::redundant_locals)]
@@ -820,6 +821,7 @@ fn gen_scene(seed: u64, steps_override: Option<usize>) -> Scene {
     match env("SOLVER").as_deref() {
         Some("jacobi") => solver = Solver::BlockJacobi,
         Some("multigrid") => solver = Solver::Multigrid,
+        Some("lines") => solver = Solver::MultigridLines,
         _ => {}
     }
     if let Some(v) = env("CELLS") {
