@@ -2310,8 +2310,8 @@ mod tests {
     }
 
     /// An anisotropic cloth (the springs along `u` 100× as stiff as the others): the line
-    /// smoother ([`Smoother::Lines`]) solves it in half of block Jacobi's cycles or fewer, to
-    /// the same solution, with pins and contacts too. Its lines are the grid's rows (along
+    /// smoother ([`Smoother::Lines`]) solves it in a fraction of block Jacobi's cycles, to the
+    /// same solution, with pins and contacts too. Its lines are the grid's rows (along
     /// the strong springs), found from the matrix alone.
     #[test]
     fn lines_smooth_an_anisotropic_cloth_in_few_iterations() {
@@ -2344,11 +2344,9 @@ mod tests {
                 counts.push(st.iterations);
                 solutions.push(x);
             }
-            // measured 30 against 64, and 43 against 124 with pins and contacts (the coarse
-            // levels' aggregates are not lines: they smooth the anisotropy left to them by
-            // block Jacobi)
+            // measured 22 against 64, and 25 against 124 with pins and contacts
             assert!(
-                2 * counts[1] <= counts[0],
+                5 * counts[1] <= 2 * counts[0],
                 "lines {} against block Jacobi {} iterations",
                 counts[1],
                 counts[0]
