@@ -157,48 +157,65 @@ pub(crate) fn solve(
     let dv = live_mut(a.dv, n)?;
     let rhs = live(a.rhs, n)?;
     let mut result = Err(pcg::PcgError::Breakdown);
+    // Whether the multilevel operators in the pools are those the solver's own smoother makes
+    // (see below).
+    let mut own_operators = true;
     if c.solver.is_multilevel() {
-        // Lent for the solve: the block-Jacobi array and the force vector (read into rhs by
-        // the forces stage): the coarsest factor first, the levels' vectors after it (a mesh
-        // whose levels do not fit steps with block Jacobi).
-        let (dense, vectors) = a
-            .force
-            .split_at_mut(dense_vectors(n, c.nnz).min(a.force.len()));
-        let mem = multigrid::Memory {
-            agg: live(a.scratch_b, n)?,
-            index: a.scratch_a,
-            blocks: bytemuck::cast_slice_mut(&mut *a.precond),
-            dense: bytemuck::cast_slice_mut(dense),
-            vectors,
+        // The line smoother's `T` need not dominate `A` everywhere (it is checked only where
+        // a line is made, not against the couplings it leaves out), and where it does not the
+        // cycle is not positive and the CG breaks down (adversarial scenes 12033 and 5079, a
+        // stiff cloth driven hard: 25 failed steps each). A solve with lines that breaks down
+        // is tried again with block-Jacobi smoothing, from its last good iterate, before
+        // block-Jacobi PCG.
+        let smoothers: &[multigrid::Smoother] = if c.solver == Solver::MultigridLines {
+            &[multigrid::Smoother::Lines, multigrid::Smoother::Jacobi]
+        } else {
+            &[multigrid::Smoother::Jacobi]
         };
-        let options = multigrid::Options {
-            smoother: if c.solver == Solver::MultigridLines {
-                multigrid::Smoother::Lines
-            } else {
-                multigrid::Smoother::Jacobi
-            },
-            ..multigrid::Options::default()
-        };
-        let built = match resume {
-            Some(r) if r.operators_kept => {
-                let listed: &[u32] = bytemuck::cast_slice(live(a.w_s, n)?);
-                let changed = listed.get(..r.changed).ok_or(StepError::SolverBreakdown)?;
-                multigrid::Multigrid::renew(mem, op, filter, changed, options)
-            }
-            _ => multigrid::Multigrid::new(mem, op, filter, options),
-        };
-        if let Ok(mut mg) = built {
-            let work = pcg::Work {
-                r: live_mut(a.w_r, n)?,
-                c: live_mut(a.w_c, n)?,
-                q: live_mut(a.w_q, n)?,
-                s: live_mut(a.w_s, n)?,
-                p: live_mut(a.w_p, n)?,
+        for (attempt, &smoother) in smoothers.iter().enumerate() {
+            // Lent for the solve: the block-Jacobi array and the force vector (read into rhs
+            // by the forces stage): the coarsest factor first, the levels' vectors after it (a
+            // mesh whose levels do not fit steps with block Jacobi).
+            let (dense, vectors) = a
+                .force
+                .split_at_mut(dense_vectors(n, c.nnz).min(a.force.len()));
+            let mem = multigrid::Memory {
+                agg: live(a.scratch_b, n)?,
+                index: a.scratch_a,
+                blocks: bytemuck::cast_slice_mut(&mut *a.precond),
+                dense: bytemuck::cast_slice_mut(dense),
+                vectors,
             };
-            result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
+            let options = multigrid::Options {
+                smoother,
+                ..multigrid::Options::default()
+            };
+            let built = match resume {
+                Some(r) if r.operators_kept && attempt == 0 => {
+                    let listed: &[u32] = bytemuck::cast_slice(live(a.w_s, n)?);
+                    let changed = listed.get(..r.changed).ok_or(StepError::SolverBreakdown)?;
+                    multigrid::Multigrid::renew(mem, op, filter, changed, options)
+                }
+                _ => multigrid::Multigrid::new(mem, op, filter, options),
+            };
+            if let Ok(mut mg) = built {
+                let work = pcg::Work {
+                    r: live_mut(a.w_r, n)?,
+                    c: live_mut(a.w_c, n)?,
+                    q: live_mut(a.w_q, n)?,
+                    s: live_mut(a.w_s, n)?,
+                    p: live_mut(a.w_p, n)?,
+                };
+                result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
+            }
+            own_operators = attempt == 0;
+            if result.is_ok() {
+                break;
+            }
         }
     }
-    let operators_kept = result.is_ok();
+    // (a re-solve renews the operators of its own smoother only)
+    let operators_kept = result.is_ok() && own_operators;
     // The residual's energy `δ` at the end of the solve (in its preconditioner's norm).
     let settled = |stats: &pcg::Stats| {
         let residual = f64::from(stats.residual);
