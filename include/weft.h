@@ -247,7 +247,8 @@
 
 /**
  * `weft_world_set_solver`: `WEFT_SOLVER_MULTIGRID` with its finest level smoothed along lines
- * of dominant couplings, for materials much stiffer along one direction than across it.
+ * of dominant couplings, for materials much stiffer along one direction than across it
+ * (experimental: less robust than the default on extreme scenes, see the README).
  */
 #define WEFT_SOLVER_MULTIGRID_LINES 2
 

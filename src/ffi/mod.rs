@@ -158,7 +158,8 @@ pub const WEFT_SOLVER_MULTIGRID: u32 = 0;
 /// `weft_world_set_solver`: CG preconditioned by the inverse 3×3 diagonal blocks.
 pub const WEFT_SOLVER_BLOCK_JACOBI: u32 = 1;
 /// `weft_world_set_solver`: `WEFT_SOLVER_MULTIGRID` with its finest level smoothed along lines
-/// of dominant couplings, for materials much stiffer along one direction than across it.
+/// of dominant couplings, for materials much stiffer along one direction than across it
+/// (experimental: less robust than the default on extreme scenes, see the README).
 pub const WEFT_SOLVER_MULTIGRID_LINES: u32 = 2;
 
 /// `WeftLocalizeOutput.normal_mode`: each fine normal is the barycentric blend of the coarse
