@@ -2033,30 +2033,8 @@ fn cloth_lying_on_the_floor_peels_off_when_a_corner_is_lifted() {
 fn a_fine_drape_rests_with_one_substep_as_with_two() {
     let (n, size) = (129usize, 0.16f32);
     let drape = |substeps: u32| {
-        let (sheet, sphere) = over_a_small_sphere(n, size, 0.001);
-        let mats = [anisotropic()];
-        let mut mem = memory(&sheet.capacity());
-        let settings = Settings {
-            substeps,
-            time_step: 1.0 / 120.0,
-            damping_mass: 5.0,
-            damping_stiffness: 0.01,
-            ..Settings::default()
-        };
-        let mut w = world(&mut mem, &sheet, &mats, settings);
-        w.add_collider(sphere).unwrap();
-        let centre = sheet.index(n / 2, n / 2);
-        w.set_pin(centre, w.positions()[centre as usize].to_array())
-            .unwrap();
-        for _ in 0..120 {
-            w.step().unwrap();
-        }
-        let fastest = w
-            .velocities()
-            .iter()
-            .map(|v| v.length())
-            .fold(0.0f32, f32::max);
-        (w.positions().to_vec(), fastest)
+        let d = fine_drape(n, size, substeps, Solver::Multigrid);
+        (d.positions, d.fastest)
     };
     let (one, fastest_one) = drape(1);
     let (two, fastest_two) = drape(2);
@@ -2072,6 +2050,53 @@ fn a_fine_drape_rests_with_one_substep_as_with_two() {
         "one substep: still moving at {fastest_one} m/s"
     );
     assert!(apart < 0.05 * size, "{apart} m apart on a {size} m cloth");
+}
+
+/// What [`fine_drape`] leaves.
+struct Drape {
+    positions: Vec<Vec3A>,
+    fastest: f32,
+    iterations: u32,
+    unconverged: u32,
+}
+
+/// The study's drape over a small sphere ([`over_a_small_sphere`]): an `n × n` anisotropic
+/// cloth `size` metres wide, pinned at its centre, stepped 120 times at 120 Hz with `substeps`
+/// and `solver`.
+fn fine_drape(n: usize, size: f32, substeps: u32, solver: Solver) -> Drape {
+    let (sheet, sphere) = over_a_small_sphere(n, size, 0.001);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let settings = Settings {
+        substeps,
+        time_step: 1.0 / 120.0,
+        damping_mass: 5.0,
+        damping_stiffness: 0.01,
+        ..Settings::default()
+    };
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    w.set_solver(solver);
+    w.add_collider(sphere).unwrap();
+    let centre = sheet.index(n / 2, n / 2);
+    w.set_pin(centre, w.positions()[centre as usize].to_array())
+        .unwrap();
+    let (mut iterations, mut unconverged) = (0, 0);
+    for _ in 0..120 {
+        let s = w.step().unwrap();
+        iterations += s.iterations;
+        unconverged += u32::from(!s.converged);
+    }
+    let fastest = w
+        .velocities()
+        .iter()
+        .map(|v| v.length())
+        .fold(0.0f32, f32::max);
+    Drape {
+        positions: w.positions().to_vec(),
+        fastest,
+        iterations,
+        unconverged,
+    }
 }
 
 /// Coulomb friction on an incline steeper than the friction angle: the cloth slides down with
@@ -2392,30 +2417,9 @@ fn line_smoothing_is_the_plain_solver_without_lines_and_stays_convergent_on_a_pl
         );
     }
 
-    let (n, size) = (33usize, 0.16f32);
     let drape = |solver: Solver| {
-        let (sheet, sphere) = over_a_small_sphere(n, size, 0.001);
-        let mats = [anisotropic()];
-        let mut mem = memory(&sheet.capacity());
-        let settings = Settings {
-            time_step: 1.0 / 120.0,
-            damping_mass: 5.0,
-            damping_stiffness: 0.01,
-            ..Settings::default()
-        };
-        let mut w = world(&mut mem, &sheet, &mats, settings);
-        w.set_solver(solver);
-        w.add_collider(sphere).unwrap();
-        let centre = sheet.index(n / 2, n / 2);
-        w.set_pin(centre, w.positions()[centre as usize].to_array())
-            .unwrap();
-        let (mut iterations, mut unconverged) = (0, 0);
-        for _ in 0..120 {
-            let s = w.step().unwrap();
-            iterations += s.iterations;
-            unconverged += u32::from(!s.converged);
-        }
-        (iterations, unconverged)
+        let d = fine_drape(33, 0.16, 1, solver);
+        (d.iterations, d.unconverged)
     };
     let (plain, _) = drape(Solver::Multigrid);
     let (lines, unconverged) = drape(Solver::MultigridLines);

@@ -804,7 +804,7 @@ impl<'a> Multigrid<'a> {
                 }
                 lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, false)?;
                 for _ in 1..nu {
-                    line_residual(a, w, f, r0, z0, t0)?;
+                    fine_residual(a, w, f, r0, z0, t0)?;
                     lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, true)?;
                 }
             }
@@ -856,7 +856,7 @@ impl<'a> Multigrid<'a> {
         for _ in 0..nu {
             match smoother {
                 Smoother::Lines => {
-                    line_residual(a, w, f, r0, z0, t0)?;
+                    fine_residual(a, w, f, r0, z0, t0)?;
                     lines::solve(ops.blocks, &layout, line_count, t0, z0, LINE_OMEGA, true)?;
                 }
                 Smoother::Jacobi => {
@@ -1116,23 +1116,6 @@ fn dot(a: &[Vec3A], b: &[Vec3A]) -> f64 {
     a.iter()
         .zip(b)
         .fold(0.0, |s, (&x, &y)| s + crate::pcg::dot64(x, y))
-}
-
-/// `t = S (r − Ã z)` (the smoothing operator: `A`, or with its scalar couplings' weights `w`
-/// lumped), for the line smoother to solve in place.
-fn line_residual<F: Filter>(
-    a: &BlockMatrix<'_>,
-    w: &[f32],
-    f: &F,
-    r: &[Vec3A],
-    z: &[Vec3A],
-    t: &mut [Vec3A],
-) -> Result<(), MgError> {
-    a.mul(z, t).map_err(|_| MgError::LengthMismatch)?;
-    for (i, (ti, (&zi, &ri))) in t.iter_mut().zip(z.iter().zip(r)).enumerate() {
-        *ti = f.at(i, ri - weighted(*ti, w, i, zi));
-    }
-    Ok(())
 }
 
 /// `t = S (r − A z)` on the finest level, with `A`'s lumped scalar couplings `w` (empty:

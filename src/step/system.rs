@@ -117,6 +117,20 @@ macro_rules! operator {
     }};
 }
 
+/// The PCG's work vectors over the arrays `$a` (a macro, as [`operator!`], so that it borrows
+/// only the fields it lends).
+macro_rules! work {
+    ($a:expr, $n:expr) => {
+        pcg::Work {
+            r: live_mut($a.w_r, $n)?,
+            c: live_mut($a.w_c, $n)?,
+            q: live_mut($a.w_q, $n)?,
+            s: live_mut($a.w_s, $n)?,
+            p: live_mut($a.w_p, $n)?,
+        }
+    };
+}
+
 /// Solves `A Δv = rhs` for `a.dv` (the system [`fold`] made), starting from the current `a.dv`.
 /// With constraints (`constrained`), `a.w_q` holds `A Δv` on return, so that `A Δv − rhs` is
 /// the impulse the pins and contacts supplied (their work enters the step's energy balance,
@@ -199,13 +213,7 @@ pub(crate) fn solve(
                 _ => multigrid::Multigrid::new(mem, op, filter, options),
             };
             if let Ok(mut mg) = built {
-                let work = pcg::Work {
-                    r: live_mut(a.w_r, n)?,
-                    c: live_mut(a.w_c, n)?,
-                    q: live_mut(a.w_q, n)?,
-                    s: live_mut(a.w_s, n)?,
-                    p: live_mut(a.w_p, n)?,
-                };
+                let work = work!(a, n);
                 result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
             }
             own_operators = attempt == 0;
@@ -230,13 +238,7 @@ pub(crate) fn solve(
             for (p, d) in live_mut(a.precond, n)?.iter_mut().zip(op.diag) {
                 *p = pcg::invert_block(*d);
             }
-            let work = pcg::Work {
-                r: live_mut(a.w_r, n)?,
-                c: live_mut(a.w_c, n)?,
-                q: live_mut(a.w_q, n)?,
-                s: live_mut(a.w_s, n)?,
-                p: live_mut(a.w_p, n)?,
-            };
+            let work = work!(a, n);
             // Its reference is its own (another preconditioner, another norm), and so is
             // the next solve's. `A Δv` is still in `w_q` unless a multilevel solve ran and
             // broke down (its scratch).
