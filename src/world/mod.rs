@@ -1253,8 +1253,12 @@ impl<'a> World<'a> {
                 // Block Jacobi that did not converge (its iteration count grows with the
                 // mesh and the stiffness, and on stiff slivers it breaks down in `f32` far
                 // below its cap) is what most likely gained: the redos use the multilevel
-                // preconditioner, which every world has.
-                if !stats.converged && solver == Solver::BlockJacobi {
+                // preconditioner, which every world has. So do the redos of a step solved
+                // along lines: their smoothing is checked only where a line is made, and a
+                // cycle that is not positive everywhere can gain where it does not break down.
+                if (!stats.converged && solver == Solver::BlockJacobi)
+                    || solver == Solver::MultigridLines
+                {
                     solver = Solver::Multigrid;
                 }
                 continue;
