@@ -177,7 +177,7 @@ pub enum Solver {
     /// much stiffer along one direction than across it; elsewhere it is [`Solver::Multigrid`],
     /// bit for bit. Measured on weft-bench's scene at tolerance 1e-3 (2026-11-29), CG
     /// iterations a step at 21 / 41 / 81 per side: the `ribbed` cell (23:1) 28.5 / 49.2 / 85.4
-    /// → 9.3 / 16.3 / 25.6, `stripes` (2.8:1) 16.4 / 23.5 / 29.9 → 9.9 / 14.8 / 21.4; the
+    /// → 9.3 / 16.4 / 25.6, `stripes` (2.8:1) 16.4 / 23.5 / 29.9 → 9.7 / 14.5 / 21.9; the
     /// isotropic and weave-like cells make no lines. A step it has to redo is redone with
     /// [`Solver::Multigrid`]. Experimental: on adversarial scenes it holds a cloth still more
     /// often than the default and fails or blows up on a few extreme ones (README, "Line
