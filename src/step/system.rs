@@ -177,10 +177,11 @@ pub(crate) fn solve(
     if c.solver.is_multilevel() {
         // The line smoother's `T` need not dominate `A` everywhere (it is checked only where
         // a line is made, not against the couplings it leaves out), and where it does not the
-        // cycle is not positive and the CG breaks down (adversarial scenes 12033 and 5079, a
-        // stiff cloth driven hard: 25 failed steps each). A solve with lines that breaks down
-        // is tried again with block-Jacobi smoothing, from its last good iterate, before
-        // block-Jacobi PCG.
+        // cycle is not positive and the CG breaks down (adversarial scene 12033, a stiff cloth
+        // driven hard: 25 failed steps, none since). A solve with lines that breaks down is
+        // tried again with block-Jacobi smoothing, from its last good iterate, before
+        // block-Jacobi PCG; its product of the start is not trusted (the first attempt used
+        // `q` as scratch).
         let smoothers: &[multigrid::Smoother] = if c.solver == Solver::MultigridLines {
             &[multigrid::Smoother::Lines, multigrid::Smoother::Jacobi]
         } else {
@@ -214,6 +215,10 @@ pub(crate) fn solve(
             };
             if let Ok(mut mg) = built {
                 let work = work!(a, n);
+                let settings = pcg::Settings {
+                    product_given: settings.product_given && attempt == 0,
+                    ..settings
+                };
                 result = pcg::solve_with(&op, &mut mg, filter, rhs, dv, &settings, work);
             }
             own_operators = attempt == 0;
