@@ -179,9 +179,8 @@ pub enum Solver {
     /// iterations a step at 21 / 41 / 81 per side: the `ribbed` cell (23:1) 28.5 / 49.2 / 85.4
     /// → 9.3 / 16.4 / 25.6, `stripes` (2.8:1) 16.4 / 23.5 / 29.9 → 9.7 / 14.5 / 21.9; the
     /// isotropic and weave-like cells make no lines. A step it has to redo is redone with
-    /// [`Solver::Multigrid`]. Experimental: on adversarial scenes it holds a cloth still more
-    /// often than the default and fails or blows up on a few extreme ones (README, "Line
-    /// smoothing").
+    /// [`Solver::Multigrid`]. Experimental: on adversarial scenes it converges more often than
+    /// the default but fails or blows up on a few extreme ones (README, "Line smoothing").
     MultigridLines,
 }
 
