@@ -1295,6 +1295,25 @@ fn level_ops<'b>(
     ))
 }
 
+/// Vertex `i`'s filter block where it holds a direction, `None` where it is the identity (a
+/// free vertex), so that its couplings are taken as they are instead of through two 3×3
+/// products each (`I A I` is `A`).
+pub(super) fn held(filter: Option<&[Mat3A]>, i: usize) -> Option<Mat3A> {
+    filter
+        .and_then(|f| f.get(i))
+        .copied()
+        .filter(|si| *si != Mat3A::IDENTITY)
+}
+
+/// The filtered coupling `S_i A_ij S_j` of the block `m` between vertices whose filters are
+/// `si` and `sj` ([`held`]).
+pub(super) fn filtered_coupling(si: Option<Mat3A>, m: &Mat3A, sj: Option<Mat3A>) -> Mat3A {
+    match (si, sj) {
+        (None, None) => *m,
+        (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
+    }
+}
+
 /// The finest level's smoothing block of vertex `i` (diagonal block `d`, `n` vertices):
 /// `A_ii`, plus its lumped scalar couplings when `lumped` (their weights in `blocks`),
 /// filtered.
@@ -1369,14 +1388,7 @@ fn galerkin_fine(
             }
         }
     }
-    // A free vertex's filter block is the identity: `None`, so that its couplings are
-    // summed as they are instead of through two 3×3 products each (`I A I` is `A`).
-    let s = |i: usize| {
-        filter
-            .and_then(|f| f.get(i))
-            .copied()
-            .filter(|si| *si != Mat3A::IDENTITY)
-    };
+    let s = |i: usize| held(filter, i);
     for (i, (d, &big_i)) in a.diag.iter().zip(agg).enumerate() {
         if !wanted(big_i, big_i) {
             continue;
@@ -1395,10 +1407,7 @@ fn galerkin_fine(
                 continue;
             }
             let m = a.off.get(k).ok_or(MgError::Internal)?;
-            let f = match (si, s(j)) {
-                (None, None) => *m,
-                (a, b) => a.unwrap_or(Mat3A::IDENTITY) * *m * b.unwrap_or(Mat3A::IDENTITY),
-            };
+            let f = filtered_coupling(si, m, s(j));
             let code = *map_blocks.get(k).ok_or(MgError::Internal)?;
             place(cdiag, coff, code, big_i as usize, &f)?;
         }

@@ -36,7 +36,7 @@
 //! pipeline (one line at a time, the sweep waits on each 3×3 product before the next). A vertex
 //! alone on its line keeps block Jacobi's damping (its `S⁻¹` is scaled by `single`, [`factor`]).
 
-use super::cycle::{inverse_sym, sym_mul, sym_to_mat};
+use super::cycle::{filtered_coupling, held, inverse_sym, sym_mul, sym_to_mat};
 use super::*;
 
 /// Lines solved side by side in one sweep.
@@ -354,7 +354,6 @@ pub(super) fn factor(
     only: bool,
 ) -> Result<(), MgError> {
     let n = layout.n;
-    let s = |i: usize| filter.and_then(|f| f.get(i)).copied();
     for l in 0..lines {
         let starts = words_mut(blocks, layout.starts, n + 1)?;
         let (Some(&a), Some(&b)) = (starts.get(l), starts.get(l + 1)) else {
@@ -394,13 +393,7 @@ pub(super) fn factor(
                 Mat3A::ZERO
             } else {
                 let j = next.ok_or(MgError::Internal)? as usize;
-                let mut bt = block(off, code)?;
-                if let Some(si) = s(i).filter(|m| *m != Mat3A::IDENTITY) {
-                    bt = si * bt;
-                }
-                if let Some(sj) = s(j).filter(|m| *m != Mat3A::IDENTITY) {
-                    bt *= sj;
-                }
+                let bt = filtered_coupling(held(filter, i), &block(off, code)?, held(filter, j));
                 let c = sym_to_mat(&inv) * bt;
                 carried = bt.transpose() * c;
                 c
@@ -415,12 +408,12 @@ pub(super) fn factor(
 
 /// Whether the Schur complement `schur` of a line's block at a vertex with diagonal block `d`
 /// is kept: positive definite (its leading minors, in `f64`), and every diagonal entry at least
-/// [`KEPT`] of `d`'s (not numerically singular). `A`'s block-tridiagonal part along a line need not be positive: bending
-/// couples a vertex to the next but one with the sign opposite to the next (a plate's
-/// `[1, −4, 6, −4, 1]`), and the tridiagonal `[−4, 6, −4]` is indefinite; solved through, it
-/// made the smoother useless (a flat cloth falling under gravity, bending its only
-/// out-of-plane coupling, took 89 CG iterations for a solve block Jacobi did in 2). Where the
-/// complement would fall below it, the line is cut there.
+/// [`KEPT`] of `d`'s (not numerically singular). `A`'s block-tridiagonal part along a line need
+/// not be positive: bending couples a vertex to the next but one with the sign opposite to the
+/// next (a plate's `[1, −4, 6, −4, 1]`), and the tridiagonal `[−4, 6, −4]` is indefinite;
+/// solved through, it made the smoother useless (a flat cloth falling under gravity, bending its
+/// only out-of-plane coupling, took 89 CG iterations for a solve block Jacobi did in 2). Where
+/// the complement would fall below it, the line is cut there.
 fn kept(schur: &Mat3A, d: &Mat3A) -> bool {
     let [m00, m10, m20, m01, m11, m21, m02, m12, m22] = schur.to_cols_array().map(f64::from);
     let (xy, xz, yz) = (0.5 * (m01 + m10), 0.5 * (m02 + m20), 0.5 * (m12 + m21));
