@@ -214,7 +214,7 @@ pub fn add_forces(
 /// difference form as [`add_forces`], clamped at 0 (it is a sum of terms of both signs whose
 /// exact total is ≥ 0; see [`energy_with_noise`]).
 pub fn energy(parts: &[(Pattern<'_>, &[f32])], x: &[Vec3A]) -> f64 {
-    energy_with_noise(parts, &[], x).0
+    energy_with_noise(parts, &[], x, f32::INFINITY).0
 }
 
 /// [`energy`] and a bound on its round-off (J). `parts` are the strictly-upper entries of
@@ -228,8 +228,14 @@ pub fn energy(parts: &[(Pattern<'_>, &[f32])], x: &[Vec3A]) -> f64 {
 /// dwarfed the 3e-3 J in play and the balance was blind.) What remains is the state's own
 /// resolution: positions are `f32`, so a motion of an ulp `δ = ε |x|_∞` changes the energy by
 /// up to `tr(Q) δ² + 2 δ √(2 E tr(Q))` (the per-hinge form `E = Σ_h ½ c_h |k_hᵀ x|²` with
-/// `tr(Q) = Σ_h c_h |k_h|²`, by Cauchy–Schwarz), which a flat cloth at rest has too.
-pub fn energy_with_noise(parts: &[(Pattern<'_>, &[f32])], diag: &[f32], x: &[Vec3A]) -> (f64, f64) {
+/// `tr(Q) = Σ_h c_h |k_h|²`, by Cauchy–Schwarz), which a flat cloth at rest has too. `reach`
+/// caps `|x|_∞` there, as in [`crate::membrane::elastic_energy_with_noise`].
+pub fn energy_with_noise(
+    parts: &[(Pattern<'_>, &[f32])],
+    diag: &[f32],
+    x: &[Vec3A],
+    reach: f32,
+) -> (f64, f64) {
     let mut e = 0.0f64;
     let mut magnitude = 0.0f64;
     for (p, off) in parts {
@@ -254,7 +260,10 @@ pub fn energy_with_noise(parts: &[(Pattern<'_>, &[f32])], diag: &[f32], x: &[Vec
         }
     }
     let e = e.max(0.0);
-    let reach = x.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+    let reach = x
+        .iter()
+        .fold(0.0f32, |m, p| m.max(p.abs().max_element()))
+        .min(reach);
     let delta = f64::from(f32::EPSILON * reach);
     let trace: f64 = diag.iter().map(|&q| f64::from(q.abs())).sum();
     let noise = 4.0 * f64::EPSILON * magnitude

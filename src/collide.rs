@@ -72,6 +72,21 @@ impl Shape {
         }
     }
 
+    /// How far the shape reaches from the origin (largest coordinate, m): its farthest surface
+    /// point for a sphere, capsule or shell; for a plane, which has none, its point nearest the
+    /// origin. A point pushed out of the shape ([`Shape::push_out_along`]) lands within a few
+    /// times this, its own reach and the thickness: the energy balance's bound on where a
+    /// step can put the cloth (`step::monitor::reach_bound`).
+    pub(crate) fn reach(&self) -> f32 {
+        match *self {
+            Shape::Plane { offset, .. } => offset.abs(),
+            Shape::Sphere { center, radius } | Shape::Shell { center, radius } => {
+                center.abs().max_element() + radius
+            }
+            Shape::Capsule { a, b, radius } => a.abs().max(b.abs()).max_element() + radius,
+        }
+    }
+
     /// Signed distance and outward normal at point `p`.
     #[inline]
     pub fn proximity(&self, p: Vec3A) -> Proximity {

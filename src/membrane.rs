@@ -555,7 +555,7 @@ pub fn elastic_energy(
     x: &[Vec3A],
     strain: Strain,
 ) -> Result<f64, AssemblyError> {
-    Ok(elastic_energy_with_noise(triangles, elements, x, strain)?.0)
+    Ok(elastic_energy_with_noise(triangles, elements, x, strain, f32::INFINITY)?.0)
 }
 
 /// [`elastic_energy`] and the energy a strain of `f32` round-off carries (J): positions are
@@ -565,11 +565,16 @@ pub fn elastic_energy(
 /// `A σ·δe`, is relative to the energy; the balance bounds it as such.) Without this a cloth
 /// at rest, whose energy is 1e-15..1e-12 J of round-off, read every round-off change as a
 /// gain and was refused at almost every step.
+///
+/// `reach` caps the coordinate size the round-off is taken at (`f32::INFINITY`: the
+/// positions' own): the energy balance judges a step's end by where a sound step could have
+/// put the cloth, not by where an unsound one threw it (`step::monitor::reach_bound`).
 pub fn elastic_energy_with_noise(
     triangles: &[[u32; 3]],
     elements: &[Element],
     x: &[Vec3A],
     strain: Strain,
+    reach: f32,
 ) -> Result<(f64, f64), AssemblyError> {
     if elements.len() != triangles.len() {
         return Err(AssemblyError::LengthMismatch);
@@ -580,7 +585,10 @@ pub fn elastic_energy_with_noise(
         let (e, _, _) = el.measure(xs, strain);
         let s = el.stress(e);
         energy += 0.5 * f64::from(el.area * (s[0] * e[0] + s[1] * e[1] + s[2] * e[2]));
-        let reach = xs.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+        let reach = xs
+            .iter()
+            .fold(0.0f32, |m, p| m.max(p.abs().max_element()))
+            .min(reach);
         let [_, _, g1u, g1v, g2u, g2v] = el.grad;
         let de =
             2.0 * f64::from(f32::EPSILON * reach * (g1u.abs() + g1v.abs() + g2u.abs() + g2v.abs()));

@@ -1151,10 +1151,23 @@ impl<'a> World<'a> {
             // energy's round-off is infinite as well), and from it every later step fails.
             // Measured: adversarial scene 5079 (a cloth crushed by a moving shell) accepted
             // such a step and then broke down at every call.
+            // The end's round-off is taken no farther out than a sound step reaches
+            // (`monitor::reach_bound`): one that threw the cloth far is not forgiven the
+            // resolution of where it landed.
             let attempt = self
                 .run_substeps(dt, substeps, solver, tolerance, limiting.is_some())
                 .and_then(|stats| {
-                    let end = monitor::level(&self.a, &counts, &self.settings)?;
+                    let (input, input_noise) = self.last_input;
+                    let (a, st) = (&self.a, &self.settings);
+                    let reach = monitor::reach_bound(
+                        a,
+                        &counts,
+                        st,
+                        dt,
+                        &start,
+                        input.abs() + input_noise,
+                    )?;
+                    let end = monitor::level_within(a, &counts, st, reach)?;
                     if end.is_finite() {
                         Ok((stats, end))
                     } else {
@@ -1439,7 +1452,7 @@ impl<'a> World<'a> {
         // arrays, so the fallback (no energy) is never taken.
         let (a, c, st) = (&self.a, self.counts(), &self.settings);
         let parts = || -> Result<Energy, StepError> {
-            let (elastic, bending, _) = monitor::shape_energy(a, &c, st)?;
+            let (elastic, bending, _) = monitor::shape_energy(a, &c, st, f32::INFINITY)?;
             Ok(Energy {
                 kinetic: monitor::kinetic(prefix(a.mass, c.n), prefix(a.v, c.n)),
                 elastic,
