@@ -528,14 +528,16 @@ enum WeftResult
     WEFT_RESULT_NON_FINITE_PIN = 65,
     /**
      * The linear solver broke down at every substep count the step tried (up to 8× the
-     * setting's); the world kept the state it had before the step.
+     * setting's), and holding the cloth still instead (`WeftStepStats.stopped`, what such a
+     * step does otherwise) overflowed too: its pins' targets lie beyond what 32-bit floats
+     * hold. The world kept the state it had before the step.
      */
     WEFT_RESULT_SOLVER_BREAKDOWN = 66,
     /**
      * The step produced NaN or infinite positions, or a state whose energy overflows a 32-bit
-     * float, at every substep count the step tried (up to 8× the setting's); the world kept
-     * the state it had before. Usually a time step far too large for the cloth's stiffness,
-     * or a pin target out of reach (e.g. moved 1e9 m in one step).
+     * float, at every substep count the step tried (up to 8× the setting's), and so did
+     * holding the cloth still; the world kept the state it had before. Usually a pin target
+     * out of reach (e.g. moved 1e9 m in one step).
      */
     WEFT_RESULT_NON_FINITE_STATE = 67,
     /**
@@ -1062,10 +1064,11 @@ typedef struct WeftStepStats {
     float energy_removed;
     /**
      * 1 when even the energy-limited attempt (`limited`) gained more energy than the kinetic
-     * energy could give back, so the world held the cloth still for this step instead:
-     * positions as at its start, but the pinned vertices on their targets and every other
-     * vertex put out of the colliders (as they are at the end of the step), velocities zero
-     * (`energy_removed` is the kinetic energy it had); else 0.
+     * energy could give back, or every attempt's solve broke down or overflowed, so the world
+     * held the cloth still for this step instead: positions as at its start, but the pinned
+     * vertices on their targets and every other vertex put out of the colliders (as they are
+     * at the end of the step), velocities zero (`energy_removed` is the kinetic energy it
+     * had); else 0. The next step starts from rest.
      */
     uint32_t stopped;
     /**

@@ -2433,3 +2433,40 @@ fn line_smoothing_is_the_plain_solver_without_lines_and_stays_convergent_on_a_pl
         "{lines} CG iterations with lines, {plain} without"
     );
 }
+
+/// A step that breaks down or overflows at every substep count holds the cloth still, and the
+/// next step goes on from rest. Failing kept the start, velocities and all, and every later
+/// call failed the same way (adversarial scene 16050: a stiff cloth an unconverged solve had
+/// left with a vertex at 169 m/s failed at each of its last 25 calls). Here one vertex of a
+/// hanging cloth is given 1e18 m/s: at any substep count its first substep throws it beyond
+/// what `f32` energies hold.
+#[test]
+fn a_step_that_fails_at_every_substep_count_holds_the_cloth_still() {
+    let (sheet, settings) = hanging(9);
+    let mats = [anisotropic()];
+    let mut mem = memory(&sheet.capacity());
+    let mut w = world(&mut mem, &sheet, &mats, settings);
+    let (a, b) = (sheet.index(0, 8), sheet.index(8, 8));
+    w.set_pin(a, sheet.positions[a as usize]).unwrap();
+    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    for _ in 0..5 {
+        w.step().unwrap();
+    }
+    let before: Vec<Vec3A> = w.positions().to_vec();
+    let mut v: Vec<[f32; 3]> = w.velocities().iter().map(|&v| v.into()).collect();
+    v[40] = [0.0, 1e18, 0.0];
+    w.set_velocities(&v).unwrap();
+    let held = w.step().expect("held still, not failed");
+    assert!(held.stopped, "{held:?}");
+    assert!(held.redone >= 3, "{held:?}");
+    assert_eq!(w.positions(), &before[..], "held where it started");
+    assert!(w.velocities().iter().all(|&v| v == Vec3A::ZERO));
+    // and from rest it steps on
+    for step in 0..10 {
+        let s = w
+            .step()
+            .unwrap_or_else(|e| panic!("step {step} after the hold: {e:?}"));
+        assert!(!s.stopped, "step {step} after the hold: {s:?}");
+    }
+    assert!(w.positions().iter().all(|p| p.is_finite()));
+}

@@ -132,12 +132,14 @@ pub enum WeftResult {
     /// The target of the pin on vertex `detail.vertex` is NaN or infinite; the step did nothing.
     NonFinitePin = 65,
     /// The linear solver broke down at every substep count the step tried (up to 8× the
-    /// setting's); the world kept the state it had before the step.
+    /// setting's), and holding the cloth still instead (`WeftStepStats.stopped`, what such a
+    /// step does otherwise) overflowed too: its pins' targets lie beyond what 32-bit floats
+    /// hold. The world kept the state it had before the step.
     SolverBreakdown = 66,
     /// The step produced NaN or infinite positions, or a state whose energy overflows a 32-bit
-    /// float, at every substep count the step tried (up to 8× the setting's); the world kept
-    /// the state it had before. Usually a time step far too large for the cloth's stiffness,
-    /// or a pin target out of reach (e.g. moved 1e9 m in one step).
+    /// float, at every substep count the step tried (up to 8× the setting's), and so did
+    /// holding the cloth still; the world kept the state it had before. Usually a pin target
+    /// out of reach (e.g. moved 1e9 m in one step).
     NonFiniteState = 67,
     /// The step's energy balance is not a number (its energies overflowed `double`). The world
     /// kept the state it had before the step. (A step that gains energy is redone with more

@@ -259,10 +259,11 @@ pub struct WeftStepStats {
     /// up to more than the round-off; 0 for a sound step.
     pub energy_removed: f32,
     /// 1 when even the energy-limited attempt (`limited`) gained more energy than the kinetic
-    /// energy could give back, so the world held the cloth still for this step instead:
-    /// positions as at its start, but the pinned vertices on their targets and every other
-    /// vertex put out of the colliders (as they are at the end of the step), velocities zero
-    /// (`energy_removed` is the kinetic energy it had); else 0.
+    /// energy could give back, or every attempt's solve broke down or overflowed, so the world
+    /// held the cloth still for this step instead: positions as at its start, but the pinned
+    /// vertices on their targets and every other vertex put out of the colliders (as they are
+    /// at the end of the step), velocities zero (`energy_removed` is the kinetic energy it
+    /// had); else 0. The next step starts from rest.
     pub stopped: u32,
     /// 1 when the redos gained more energy than the kinetic energy could give back, so the
     /// step was done once more with each substep's end energy-limited: the velocity of the

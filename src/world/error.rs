@@ -64,12 +64,15 @@ pub enum StepError {
     NonFinitePin {
         vertex: u32,
     },
-    /// The solver broke down (indefinite or non-finite system), at every substep count the
-    /// step tried (up to 8× the setting's, as for a gain of energy).
+    /// The solver broke down (indefinite or non-finite system) at every substep count the
+    /// step tried (up to 8× the setting's, as for a gain of energy), and holding the cloth
+    /// still instead ([`StepStats::stopped`], what such a step does otherwise) overflowed too:
+    /// its pins' targets lie beyond what `f32` energies hold. The world kept the state it had
+    /// before.
     SolverBreakdown,
     /// The step produced NaN or infinite positions or velocities, or a state whose energy
-    /// overflows `f32` (e.g. a pin moved 1e9 m in one step), at every substep count the step
-    /// tried; the world kept the state it had before.
+    /// overflows `f32`, at every substep count the step tried, and so did holding the cloth
+    /// still (e.g. a pin moved 1e9 m in one step); the world kept the state it had before.
     NonFiniteState,
     /// The step's energy balance is not a number (its energies overflowed `f64`). The state
     /// is the one before this step. (A step that gains energy is redone, then energy-limited,
@@ -124,7 +127,9 @@ pub struct StepStats {
     /// targets and every other vertex put out of the colliders (as a substep's projection
     /// does, where the colliders are at the end of the step), velocities zero
     /// (`energy_removed` is the kinetic energy it had). The next step starts from rest.
-    /// Only when the energy-limited attempt (`limited`) failed too.
+    /// Only when the energy-limited attempt (`limited`) failed too, or when every attempt's
+    /// solve broke down or its state overflowed (failing kept the start, from which every
+    /// later call failed the same way).
     pub stopped: bool,
     /// Its redos gained more energy than the kinetic energy could give back, so the step was
     /// done once more with each substep's end energy-limited: the velocity the solve gave the

@@ -1058,8 +1058,10 @@ impl<'a> World<'a> {
     /// one within its own round-off whose sum with those since the lowest level the cloth has
     /// been at exceeds the round-off of the two has that excess taken out of its kinetic
     /// energy, as far as that goes, without a redo. A substep whose solve
-    /// breaks down or whose state overflows is redone the same way, and fails the step only
-    /// after the last redo. On error the world keeps the state it had before the call.
+    /// breaks down or whose state overflows is redone the same way, and after the last redo
+    /// the cloth is held still too; the step fails only when that hold overflows as well
+    /// (pins on targets beyond `f32`). On error the world keeps the state it had before the
+    /// call.
     pub fn step_dt(&mut self, dt: f32) -> Result<StepStats, StepError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(StepError::InvalidTimeStep);
@@ -1184,9 +1186,8 @@ impl<'a> World<'a> {
                 // the failed Δv as a warm start. Failing at once kept the start, from which
                 // every later call failed the same way (an outside fuzzer's cloth of 700×
                 // vertex-mass contrast, 180 m from its origin: refused at every step from step
-                // 94 on; it steps at 4 substeps). After the last redo the step fails, with its
-                // start kept: holding the cloth still (`stop`) would put the pins on targets
-                // that may be what broke the solve (a pin at 1e30 m).
+                // 94 on; it steps at 4 substeps). After the last redo the cloth is held still
+                // for the step ([`World::stop_after`]).
                 Err(e @ (StepError::SolverBreakdown | StepError::NonFiniteState)) => {
                     if let Some(stats) = limiting {
                         let tried = StepStats {
@@ -1197,7 +1198,7 @@ impl<'a> World<'a> {
                         break self.stop(pins_on, tried)?;
                     }
                     if !redo {
-                        return Err(e);
+                        return self.stop_after(pins_on, e, redone, substeps);
                     }
                     self.restore_start(false);
                     substeps *= 2;
@@ -1354,6 +1355,29 @@ impl<'a> World<'a> {
             energy_removed: kinetic as f32,
             ..stats
         })
+    }
+
+    /// The end of a step whose last redo broke down or overflowed (`e`, after `redone` redos,
+    /// the last at `substeps`): the cloth is held still for the step ([`World::stop`]), and
+    /// the next step starts from rest. Failing kept the start, velocities and all, from which
+    /// every later call failed the same way: adversarial scene 16050 (a 7.7e5 N/m cloth of
+    /// 1 g/m² that an unconverged solve had left with a vertex at 169 m/s) diverged at every
+    /// substep count and failed at each of its last 25 calls. A hold that itself overflows
+    /// (pins on targets beyond what `f32` energies hold, a pin at 1e30 m) fails with `e`,
+    /// the start kept by the caller.
+    fn stop_after(
+        &mut self,
+        pins_on: bool,
+        e: StepError,
+        redone: u32,
+        substeps: u32,
+    ) -> Result<StepStats, StepError> {
+        let tried = StepStats {
+            redone,
+            substeps,
+            ..StepStats::default()
+        };
+        self.stop(pins_on, tried).map_err(|_| e)
     }
 
     /// The substeps of one attempt at a step; `self.last_input` gets the work of external
