@@ -673,7 +673,11 @@ fn knob_list(preset: &Preset, case: &Case) -> Vec<Knobs> {
         }
     }
     if case.sweep {
-        for solver in [Solver::Multigrid, Solver::BlockJacobi] {
+        for solver in [
+            Solver::Multigrid,
+            Solver::BlockJacobi,
+            Solver::MultigridLines,
+        ] {
             for (tol, max_iter) in [
                 (1e-2, 200),
                 (1e-3, 200),
