@@ -202,7 +202,7 @@
  * static array. It changes between library versions; query `weft_world_memory_size` for any
  * other capacity.
  */
-#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3835232
+#define WEFT_DEFAULT_WORLD_MEMORY_SIZE 3900784
 
 /**
  * A world's origin at create is the centre of the cloth's bounding box rounded to a multiple

@@ -127,7 +127,7 @@ pub const WEFT_WORLD_HEADER_SIZE: usize = 2048;
 /// in bytes, a multiple of `WEFT_WORLD_MEMORY_ALIGN`: lets a default-capacity world live in a
 /// static array. It changes between library versions; query `weft_world_memory_size` for any
 /// other capacity.
-pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_835_232;
+pub const WEFT_DEFAULT_WORLD_MEMORY_SIZE: usize = 3_900_784;
 
 /// A world's origin at create is the centre of the cloth's bounding box rounded to a multiple
 /// of this many metres (`weft_world_get_origin`); a step moves it once the cloth's centre is

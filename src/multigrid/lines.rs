@@ -151,6 +151,16 @@ pub(super) fn count(blocks: &[f32], layout: &Layout) -> Result<usize, MgError> {
     Ok(c)
 }
 
+/// Drops the lines [`build`] made (a probe found them not positive, `Multigrid::new_probed`):
+/// the level is smoothed by block Jacobi, and so are the re-setups of the same matrix
+/// ([`count`] reads no lines).
+pub(super) fn forget(blocks: &mut [f32], layout: &Layout) -> Result<(), MgError> {
+    *words_mut(blocks, layout.count, 1)?
+        .first_mut()
+        .ok_or(MgError::Internal)? = layout.n as u32;
+    Ok(())
+}
+
 /// One of a vertex's ranked couplings while the lines are made.
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C)]

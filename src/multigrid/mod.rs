@@ -166,6 +166,13 @@ const LUMP_LIMIT: f32 = 0.05;
 /// `ribbed` cell at 41×41 19.4 / 17.7 / 16.3 / 16.7.
 const LINE_OMEGA: f32 = 0.9;
 
+/// The growth of the line smoother's power step (`Multigrid::new_probed`) from which the
+/// finest level is smoothed by block Jacobi instead: the cycle stops being positive at 2, and
+/// the estimate, a power iteration one step per setup, approaches `λ_max` from below, so the
+/// limit keeps a margin. On weft-bench's scene the estimate settles at 1.69–1.72 (`stripes`,
+/// `ribbed`, 41×41); in adversarial scene 12001 it reaches 35, later 2.3–2.4.
+const LINE_LIMIT: f32 = 1.9;
+
 /// Relative pivot below which the coarsest Cholesky treats a direction as decoupled.
 const PIVOT: f64 = 1e-9;
 
@@ -292,6 +299,14 @@ pub struct Memory<'a> {
     pub blocks: &'a mut [f32],
     pub dense: &'a mut [f64],
     pub vectors: &'a mut [Vec3A],
+}
+
+/// The line smoother's positivity probe ([`Multigrid::new_probed`]): `x`, which the caller
+/// keeps from one solve to the next (a power iterate of the smoother, `vertices` entries; any
+/// contents at first), and `t`, scratch (`vertices` entries).
+pub struct Probe<'p> {
+    pub x: &'p mut [Vec3A],
+    pub t: &'p mut [Vec3A],
 }
 
 /// Errors of [`build`] and [`Multigrid::new`].

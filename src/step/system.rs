@@ -211,6 +211,15 @@ pub(crate) fn solve(
                     let changed = listed.get(..r.changed).ok_or(StepError::SolverBreakdown)?;
                     multigrid::Multigrid::renew(mem, op, filter, changed, options)
                 }
+                // The line smoother is probed for positivity at each full setup (its power
+                // iterate kept in `line_probe`, `w_r` free until the solve).
+                _ if smoother == multigrid::Smoother::Lines => {
+                    let probe = multigrid::Probe {
+                        x: live_mut(a.line_probe, n)?,
+                        t: live_mut(a.w_r, n)?,
+                    };
+                    multigrid::Multigrid::new_probed(mem, op, filter, options, Some(probe))
+                }
                 _ => multigrid::Multigrid::new(mem, op, filter, options),
             };
             if let Ok(mut mg) = built {

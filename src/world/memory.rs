@@ -218,6 +218,9 @@ arrays! { cap;
     /// start of each step: a redone step now warm-starts from the failed attempt's last `Δv`,
     /// a failed step's next solve from zero.
     w_p: Vec3A = [cap.v(); Vec3A::ZERO],
+    /// The line smoother's positivity probe, kept from one solve to the next (a power
+    /// iterate, `multigrid::Probe`): used only by `Solver::MultigridLines`.
+    line_probe: Vec3A = [cap.v(); Vec3A::ZERO],
     /// Block-Jacobi inverses, or (lent as f32) the multilevel operators of the solve.
     precond: Mat3A = [cap.multigrid_blocks(); Mat3A::IDENTITY],
     filter: Mat3A = [cap.v(); Mat3A::IDENTITY],

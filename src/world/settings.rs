@@ -179,8 +179,10 @@ pub enum Solver {
     /// iterations a step at 21 / 41 / 81 per side: the `ribbed` cell (23:1) 28.5 / 49.2 / 85.4
     /// → 9.3 / 16.4 / 25.6, `stripes` (2.8:1) 16.4 / 23.5 / 29.9 → 9.7 / 14.5 / 21.9; the
     /// isotropic and weave-like cells make no lines. A step it has to redo is redone with
-    /// [`Solver::Multigrid`]. Experimental: on adversarial scenes it converges more often than
-    /// the default but fails or blows up on a few extreme ones (README, "Line smoothing").
+    /// [`Solver::Multigrid`]. Experimental: its lines need not make a positive cycle; a probe
+    /// at every setup (one power step of the smoother) smooths with block Jacobi where it
+    /// finds them unsound, and a solve whose CG still breaks down is retried with block-Jacobi
+    /// smoothing (README, "Line smoothing").
     MultigridLines,
 }
 
