@@ -322,8 +322,9 @@ impl<'a> Multigrid<'a> {
 
     /// [`Multigrid::new`] whose line smoother ([`Smoother::Lines`]) is checked for
     /// positivity with `probe` ([`Probe`]): one power step of the smoother per setup, whose
-    /// growth estimates `λ_max(N Ã)`; where it reaches [`LINE_LIMIT`] the level is smoothed by
-    /// block Jacobi instead, this setup and the re-setups of [`Multigrid::renew`] after it.
+    /// growth estimates `λ_max(N Ã)`; where it reaches 1.9 (`LINE_LIMIT`) the level is
+    /// smoothed by block Jacobi instead, this setup and the re-setups of [`Multigrid::renew`]
+    /// after it.
     pub fn new_probed(
         mem: Memory<'a>,
         a: BlockMatrix<'a>,
