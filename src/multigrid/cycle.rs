@@ -567,16 +567,8 @@ impl<'a> Multigrid<'a> {
         let (Some(x), Some(t)) = (probe.x.get_mut(..n), probe.t.get_mut(..n)) else {
             return Err(MgError::LengthMismatch);
         };
-        let (filter, lumped) = (self.filter, self.is_lumped);
-        let stripped = BlockMatrix {
-            scalars: Scalars::NONE,
-            ..a
-        };
-        let (op, w): (BlockMatrix<'_>, &[f32]) = if lumped {
-            (stripped, part(self.blocks, 6 * n, n)?)
-        } else {
-            (a, &[])
-        };
+        let filter = self.filter;
+        let (op, w) = smoothing_operator(a, self.blocks, self.is_lumped)?;
         let s = |i: usize, v: Vec3A| held(filter, i).map_or(v, |si| si * v);
         let growth = |x: &[Vec3A], t: &mut [Vec3A]| -> Result<f64, MgError> {
             op.mul(x, t).map_err(|_| MgError::LengthMismatch)?;
@@ -869,17 +861,7 @@ impl<'a> Multigrid<'a> {
         };
         let (omega, nu) = (ops.options.omega, ops.options.sweeps);
         let inv = part(ops.blocks, 0, 6 * n)?;
-        // The finest level's smoothing operator: `A`, or `Ã` with the scalar couplings lumped
-        // ([`Options::lumped`]): their product left out, their weights `w` on the diagonal.
-        let (a, w): (BlockMatrix<'_>, &[f32]) = if lumped {
-            let stripped = BlockMatrix {
-                scalars: Scalars::NONE,
-                ..*a
-            };
-            (stripped, part(ops.blocks, 6 * n, n)?)
-        } else {
-            (*a, &[])
-        };
+        let (a, w) = smoothing_operator(*a, ops.blocks, lumped)?;
         let a = &a;
         // Pre-smoothing from z = 0, on the filtered input. The line smoother where the setup
         // made lines, else block Jacobi (for `Smoother::Lines` too: no vertex was linked).
@@ -1225,6 +1207,25 @@ fn fine_residual<F: Filter>(
         *ti = f.at(i, ri - weighted(*ti, w, i, zi));
     }
     Ok(())
+}
+
+/// The finest level's smoothing operator: `a` itself, or, `lumped`, `Ã` with its scalar
+/// couplings lumped ([`Options::lumped`]): their product left out (the matrix returned), their
+/// weights `w` (in `blocks`, returned) on the diagonal ([`weighted`]).
+fn smoothing_operator<'m, 'b>(
+    a: BlockMatrix<'m>,
+    blocks: &'b [f32],
+    lumped: bool,
+) -> Result<(BlockMatrix<'m>, &'b [f32]), MgError> {
+    if !lumped {
+        return Ok((a, &[]));
+    }
+    let n = a.diag.len();
+    let stripped = BlockMatrix {
+        scalars: Scalars::NONE,
+        ..a
+    };
+    Ok((stripped, part(blocks, 6 * n, n)?))
 }
 
 /// `(A z)_i` with the lumped weight `w_i` of vertex `i`'s scalar couplings added: `t + w_i z`,
