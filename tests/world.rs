@@ -2038,18 +2038,22 @@ fn a_fine_drape_rests_with_one_substep_as_with_two() {
     };
     let (one, fastest_one) = drape(1);
     let (two, fastest_two) = drape(2);
-    let apart = one
-        .iter()
-        .zip(&two)
-        .map(|(p, q)| (*p - *q).length())
-        .sum::<f32>()
-        / one.len() as f32;
+    let apart = mean_distance(&one, &two);
     println!("one substep {fastest_one:.1e} m/s, two {fastest_two:.1e} m/s, {apart:.1e} m apart");
     assert!(
         fastest_one < 0.02,
         "one substep: still moving at {fastest_one} m/s"
     );
     assert!(apart < 0.05 * size, "{apart} m apart on a {size} m cloth");
+}
+
+/// The mean distance (m) between the vertices of two runs of the same mesh.
+fn mean_distance(a: &[Vec3A], b: &[Vec3A]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| (*p - *q).length())
+        .sum::<f32>()
+        / a.len() as f32
 }
 
 /// What [`fine_drape`] leaves.
@@ -2086,14 +2090,9 @@ fn fine_drape(n: usize, size: f32, substeps: u32, solver: Solver) -> Drape {
         iterations += s.iterations;
         unconverged += u32::from(!s.converged);
     }
-    let fastest = w
-        .velocities()
-        .iter()
-        .map(|v| v.length())
-        .fold(0.0f32, f32::max);
     Drape {
         positions: w.positions().to_vec(),
-        fastest,
+        fastest: top_speed(&w),
         iterations,
         unconverged,
     }
@@ -2358,12 +2357,7 @@ fn line_smoothing_solves_a_ribbed_cloth_in_fewer_iterations_to_the_same_motion()
     };
     let (plain, x_plain) = run(Solver::Multigrid);
     let (lines, x_lines) = run(Solver::MultigridLines);
-    let apart = x_plain
-        .iter()
-        .zip(&x_lines)
-        .map(|(p, q)| (*p - *q).length())
-        .sum::<f32>()
-        / x_plain.len() as f32;
+    let apart = mean_distance(&x_plain, &x_lines);
     println!("CG iterations: {plain} plain, {lines} with lines; {apart:e} m apart");
     assert!(
         4 * lines <= 3 * plain,
@@ -2446,9 +2440,7 @@ fn a_step_that_fails_at_every_substep_count_holds_the_cloth_still() {
     let mats = [anisotropic()];
     let mut mem = memory(&sheet.capacity());
     let mut w = world(&mut mem, &sheet, &mats, settings);
-    let (a, b) = (sheet.index(0, 8), sheet.index(8, 8));
-    w.set_pin(a, sheet.positions[a as usize]).unwrap();
-    w.set_pin(b, sheet.positions[b as usize]).unwrap();
+    pin_top_corners(&mut w, &sheet);
     for _ in 0..5 {
         w.step().unwrap();
     }
