@@ -162,6 +162,130 @@ pub(super) fn inverse_sym(m: &Mat3A) -> Sym {
     [inv(xx), 0.0, 0.0, inv(yy), 0.0, inv(zz)]
 }
 
+/// [`inverse_sym`] of four blocks at once, in `f64` lanes, with the same operations in the
+/// same order (so the same bits); a block that takes one of its fallbacks (not finite, not
+/// positive) is made by it alone. The setup inverts every vertex's block at every solve, and
+/// one at a time the `f64` division and the tests between them left the processor idle.
+#[inline(always)]
+fn inverse_sym4(m: &[Mat3A; 4]) -> [Sym; 4] {
+    use glam::DVec4;
+    let [b0, b1, b2, b3] = m;
+    let lanes =
+        |e: fn(&Mat3A) -> f32| DVec4::new(e(b0).into(), e(b1).into(), e(b2).into(), e(b3).into());
+    let (m00, m11, m22) = (
+        lanes(|b| b.x_axis.x),
+        lanes(|b| b.y_axis.y),
+        lanes(|b| b.z_axis.z),
+    );
+    let xy = (lanes(|b| b.y_axis.x) + lanes(|b| b.x_axis.y)) * 0.5;
+    let xz = (lanes(|b| b.z_axis.x) + lanes(|b| b.x_axis.z)) * 0.5;
+    let yz = (lanes(|b| b.z_axis.y) + lanes(|b| b.y_axis.z)) * 0.5;
+    let scale = m00.max(m11).max(m22);
+    let r = scale * RIDGE;
+    let (xx, yy, zz) = (m00 + r, m11 + r, m22 + r);
+    let c00 = yy * zz - yz * yz;
+    let c01 = xz * yz - xy * zz;
+    let c02 = xy * yz - xz * yy;
+    let c11 = xx * zz - xz * xz;
+    let c12 = xy * xz - xx * yz;
+    let c22 = xx * yy - xy * xy;
+    let det = xx * c00 + xy * c01 + xz * c02;
+    let k = DVec4::ONE / det;
+    let f32s = |c: DVec4| (c * k).as_vec4().to_array();
+    let e = [
+        f32s(c00),
+        f32s(c01),
+        f32s(c02),
+        f32s(c11),
+        f32s(c12),
+        f32s(c22),
+    ];
+    let good = (scale.cmpgt(DVec4::ZERO) & det.cmpgt(DVec4::ZERO))
+        & (c22.cmpgt(DVec4::ZERO) & xx.cmpgt(DVec4::ZERO))
+        & (scale.is_finite_mask() & det.is_finite_mask());
+    let mut out = [[0.0; 6]; 4];
+    for (lane, (o, b)) in out.iter_mut().zip(m).enumerate() {
+        let mut inv = [0.0f32; 6];
+        for (v, c) in inv.iter_mut().zip(&e) {
+            *v = c.get(lane).copied().unwrap_or(f32::NAN);
+        }
+        let fine = good.test(lane) && b.is_finite() && inv.iter().all(|v| v.is_finite());
+        *o = if fine { inv } else { inverse_sym(b) };
+    }
+    out
+}
+
+crate::cpu::multiversion! {
+    /// The finest level's smoother blocks `D̂_i⁻¹` ([`fine_block`], [`inverse_sym`]) of every
+    /// vertex into the first `6 n` floats of `blocks`, four at a time ([`inverse_sym4`]), in
+    /// the AVX2 build where the processor has it ([`crate::cpu`]; bit-identical).
+    fn invert_fine, invert_fine_avx2 => invert_fine_body(
+        blocks: &mut [f32],
+        diag: &[Mat3A],
+        filter: Option<&[Mat3A]>,
+        lumped: bool,
+    ) -> Result<(), MgError>
+}
+
+#[inline(always)]
+fn invert_fine_body(
+    blocks: &mut [f32],
+    diag: &[Mat3A],
+    filter: Option<&[Mat3A]>,
+    lumped: bool,
+) -> Result<(), MgError> {
+    let n = diag.len();
+    let block = |blocks: &[f32], i: usize| {
+        let d = diag.get(i).ok_or(MgError::LengthMismatch)?;
+        fine_block(blocks, n, filter, lumped, i, d)
+    };
+    let quads = n / 4;
+    for q in 0..quads {
+        let i = 4 * q;
+        let m = [
+            block(blocks, i)?,
+            block(blocks, i + 1)?,
+            block(blocks, i + 2)?,
+            block(blocks, i + 3)?,
+        ];
+        let out = part_mut(blocks, 6 * i, 24)?;
+        for (o, s) in out.chunks_exact_mut(6).zip(inverse_sym4(&m)) {
+            o.copy_from_slice(&s);
+        }
+    }
+    for i in 4 * quads..n {
+        let inv = inverse_sym(&block(blocks, i)?);
+        part_mut(blocks, 6 * i, 6)?.copy_from_slice(&inv);
+    }
+    Ok(())
+}
+
+crate::cpu::multiversion! {
+    /// A compact level's block inverses ([`inverse_sym`]) of its diagonal blocks `diag` (6
+    /// floats each) into `inv`, four at a time ([`inverse_sym4`]), in the AVX2 build where the
+    /// processor has it ([`crate::cpu`]; bit-identical).
+    fn invert_coarse, invert_coarse_avx2 => invert_coarse_body(diag: &[f32], inv: &mut [f32]) -> ()
+}
+
+#[inline(always)]
+fn invert_coarse_body(diag: &[f32], inv: &mut [f32]) {
+    let mut quads_in = diag.chunks_exact(24);
+    let mut quads_out = inv.chunks_exact_mut(24);
+    for (d, v) in (&mut quads_in).zip(&mut quads_out) {
+        let mut m = [Mat3A::ZERO; 4];
+        for (mk, dk) in m.iter_mut().zip(d.chunks_exact(6)) {
+            *mk = sym_to_mat(dk);
+        }
+        for (o, s) in v.chunks_exact_mut(6).zip(inverse_sym4(&m)) {
+            o.copy_from_slice(&s);
+        }
+    }
+    let rest = quads_in.remainder().chunks_exact(6);
+    for (d, v) in rest.zip(quads_out.into_remainder().chunks_exact_mut(6)) {
+        v.copy_from_slice(&inverse_sym(&sym_to_mat(d)));
+    }
+}
+
 crate::cpu::multiversion! {
     /// `y = A x` on a compact level: `diag` (6 per vertex), pattern `rs`/`cols`, `off` (a
     /// block per coupling). The AVX2 build where the processor has it ([`crate::cpu`];
@@ -624,10 +748,7 @@ impl<'a> Multigrid<'a> {
             lined = false;
         }
         if !lined {
-            for (i, d) in a.diag.iter().enumerate() {
-                let inv = self.fine_inverse(i, d)?;
-                part_mut(self.blocks, 6 * i, 6)?.copy_from_slice(&inv);
-            }
+            invert_fine(self.blocks, a.diag, self.filter, self.is_lumped)?;
         }
         // (all free without a filter: a later `renew` with one changes only its vertices)
         let free = free_flags_mut(self.blocks, n)?;
@@ -704,9 +825,7 @@ impl<'a> Multigrid<'a> {
         let (diag, rest) = ops.split_at_mut(6 * lv.n);
         let (inv, off) = rest.split_at_mut(6 * lv.n);
         let off = couplings(off)?;
-        for (d, v) in diag.chunks_exact(6).zip(inv.chunks_exact_mut(6)) {
-            v.copy_from_slice(&inverse_sym(&sym_to_mat(d)));
-        }
+        invert_coarse(diag, inv);
         let Some(next) = next else {
             return Ok(());
         };
@@ -1628,6 +1747,60 @@ mod tests {
             assert_eq!(got.map(f32::to_bits), rows.map(f32::to_bits), "{d:?} {v:?}");
         }
         assert!(sym_mul(&[1.0; 5], Vec3A::ONE).is_nan());
+    }
+
+    /// The four-lane inverse is [`inverse_sym`] lane by lane, bit for bit, and so are the
+    /// passes that use it: SPD blocks over 40 binades (with nonsymmetric parts), and every
+    /// fallback (zero, not finite, indefinite, overflowing, tiny) in any lane beside good ones.
+    #[test]
+    fn four_inverses_at_once_are_the_single_ones_bit_for_bit() {
+        let mut rng = Lcg(11);
+        let spd = |rng: &mut Lcg| {
+            let s = 2f32.powi(rng.below(40) as i32 - 20);
+            let m = rng.mat();
+            (m * m.transpose() + Mat3A::from_diagonal(glam::Vec3::splat(0.01)) + rng.mat() * 1e-3)
+                * s
+        };
+        let odd = [
+            Mat3A::ZERO,
+            Mat3A::NAN,
+            Mat3A::from_diagonal(glam::Vec3::new(1.0, -1.0, 1.0)),
+            Mat3A::from_diagonal(glam::Vec3::splat(f32::MAX)),
+            Mat3A::from_diagonal(glam::Vec3::new(f32::MIN_POSITIVE, 1e-45, 1.0)),
+            Mat3A::from_cols_array(&[1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0]),
+        ];
+        let bits = |s: &[f32]| s.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for round in 0..4000 {
+            let m: [Mat3A; 4] = core::array::from_fn(|k| {
+                if round % 3 == 0 && rng.below(4) as usize == k {
+                    odd[rng.below(odd.len() as u32) as usize]
+                } else {
+                    spd(&mut rng)
+                }
+            });
+            let single: Vec<f32> = m.iter().flat_map(inverse_sym).collect();
+            assert_eq!(
+                bits(inverse_sym4(&m).as_flattened()),
+                bits(&single),
+                "{m:?}"
+            );
+            // the coarse levels' pass, on the symmetric parts (five blocks: a remainder too)
+            let diag: Vec<f32> = m
+                .iter()
+                .chain(&m[..1])
+                .flat_map(|b| {
+                    let [xx, _, _, xy, yy, _, xz, yz, zz] = b.to_cols_array();
+                    [xx, xy, xz, yy, yz, zz]
+                })
+                .collect();
+            let mut inv = vec![0.0; diag.len()];
+            invert_coarse(&diag, &mut inv);
+            let want: Vec<f32> = diag
+                .chunks_exact(6)
+                .flat_map(|d| inverse_sym(&sym_to_mat(d)))
+                .collect();
+            assert_eq!(bits(&inv), bits(&want));
+        }
     }
 
     /// Owned hierarchy memory for `n` vertices and `nnz` couplings.
