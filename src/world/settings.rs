@@ -183,8 +183,7 @@ pub enum Solver {
     /// at every setup (one power step of the smoother) smooths with block Jacobi where it
     /// finds them unsound, and a solve whose CG still breaks down is retried with block-Jacobi
     /// smoothing. At 161×161 it loses to the default (`ribbed` redoes every step at tolerance
-    /// 1e-3: its stopping test, in the preconditioner's norm, is looser; README, "Line
-    /// smoothing").
+    /// 1e-3, none at 1e-4; README, "Line smoothing").
     MultigridLines,
 }
 
