@@ -131,6 +131,25 @@ fn aligned(blocks: &mut [f32]) -> &mut [f32] {
     blocks.get_mut(skip.min(len)..).unwrap_or_default()
 }
 
+/// The upper cofactors `[c00, c01, c02, c11, c12, c22]` and the determinant of the symmetric
+/// block with diagonal `[xx, yy, zz]` and off-diagonal `[xy, xz, yz]`: of one block in `f64`
+/// ([`inverse_sym`]) or of four in lanes ([`inverse_sym4`]), the same operations in the same
+/// order either way.
+#[inline(always)]
+fn cofactors<T>([xx, yy, zz]: [T; 3], [xy, xz, yz]: [T; 3]) -> ([T; 6], T)
+where
+    T: Copy + core::ops::Add<Output = T> + core::ops::Sub<Output = T> + core::ops::Mul<Output = T>,
+{
+    let c00 = yy * zz - yz * yz;
+    let c01 = xz * yz - xy * zz;
+    let c02 = xy * yz - xz * yy;
+    let c11 = xx * zz - xz * xz;
+    let c12 = xy * xz - xx * yz;
+    let c22 = xx * yy - xy * xy;
+    let det = xx * c00 + xy * c01 + xz * c02;
+    ([c00, c01, c02, c11, c12, c22], det)
+}
+
 /// Inverse of a symmetric positive semidefinite block (from its symmetric part), in `f64`,
 /// with a relative ridge ([`RIDGE`]): exactly symmetric, SPD, finite. A zero or non-finite
 /// block (a fully constrained or broken direction) gives the zero block (decoupled); one that
@@ -144,13 +163,7 @@ pub(super) fn inverse_sym(m: &Mat3A) -> Sym {
     }
     let r = RIDGE * scale;
     let (xx, yy, zz) = (m00 + r, m11 + r, m22 + r);
-    let c00 = yy * zz - yz * yz;
-    let c01 = xz * yz - xy * zz;
-    let c02 = xy * yz - xz * yy;
-    let c11 = xx * zz - xz * xz;
-    let c12 = xy * xz - xx * yz;
-    let c22 = xx * yy - xy * xy;
-    let det = xx * c00 + xy * c01 + xz * c02;
+    let ([c00, c01, c02, c11, c12, c22], det) = cofactors([xx, yy, zz], [xy, xz, yz]);
     if det > 0.0 && c22 > 0.0 && xx > 0.0 && det.is_finite() {
         let k = 1.0 / det;
         let e = [c00, c01, c02, c11, c12, c22].map(|v| (v * k) as f32);
@@ -183,13 +196,7 @@ fn inverse_sym4(m: &[Mat3A; 4]) -> [Sym; 4] {
     let scale = m00.max(m11).max(m22);
     let r = scale * RIDGE;
     let (xx, yy, zz) = (m00 + r, m11 + r, m22 + r);
-    let c00 = yy * zz - yz * yz;
-    let c01 = xz * yz - xy * zz;
-    let c02 = xy * yz - xz * yy;
-    let c11 = xx * zz - xz * xz;
-    let c12 = xy * xz - xx * yz;
-    let c22 = xx * yy - xy * xy;
-    let det = xx * c00 + xy * c01 + xz * c02;
+    let ([c00, c01, c02, c11, c12, c22], det) = cofactors([xx, yy, zz], [xy, xz, yz]);
     let k = DVec4::ONE / det;
     let f32s = |c: DVec4| (c * k).as_vec4().to_array();
     let e = [
