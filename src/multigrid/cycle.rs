@@ -2582,9 +2582,7 @@ mod tests {
     fn lines_smooth_an_anisotropic_cloth_in_few_iterations() {
         let mut rng = Lcg(8);
         let k = 41;
-        let (pos, tris) = grid_cloth(&mut rng, k, false);
-        let c = ribbed(cloth(&mut rng, &pos, &tris, 400.0), &pos);
-        let n = pos.len();
+        let (c, n) = ribbed_grid(&mut rng, k);
         let filter = constraints(&mut rng, n);
         let b: Vec<Vec3A> = (0..n)
             .map(|_| Vec3A::new(0.0, 0.0, -1.0) + 0.1 * rng.vec())
@@ -2821,9 +2819,7 @@ mod tests {
     #[test]
     fn renew_of_lines_is_new_bit_for_bit() {
         let mut rng = Lcg(33);
-        let (pos, tris) = grid_cloth(&mut rng, 17, false);
-        let c = ribbed(cloth(&mut rng, &pos, &tris, 400.0), &pos);
-        let n = pos.len();
+        let (c, n) = ribbed_grid(&mut rng, 17);
         let before = constraints(&mut rng, n);
         let mut after = before.clone();
         let changed: Vec<u32> = (0..n as u32).filter(|i| i % 19 == 3).collect();
@@ -2861,9 +2857,7 @@ mod tests {
     #[test]
     fn a_probe_that_measures_growth_drops_the_lines() {
         let mut rng = Lcg(34);
-        let (pos, tris) = grid_cloth(&mut rng, 17, false);
-        let c = ribbed(cloth(&mut rng, &pos, &tris, 400.0), &pos);
-        let n = pos.len();
+        let (c, n) = ribbed_grid(&mut rng, 17);
         let filter = constraints(&mut rng, n);
         let f = Some(&filter[..]);
         let a = c.sys.matrix();
@@ -2926,6 +2920,12 @@ mod tests {
         let mut again = Multigrid::renew(mem.mem(), a, f, &[], lines).unwrap();
         assert_eq!(again.lines, 0);
         assert_eq!(cycle(&mut again, &mut t), dropped);
+    }
+
+    /// A `k × k` grid cloth (unrotated, springs of 400) made [`ribbed`], and its vertex count.
+    fn ribbed_grid(rng: &mut Lcg, k: usize) -> (Cloth, usize) {
+        let (pos, tris) = grid_cloth(rng, k, false);
+        (ribbed(cloth(rng, &pos, &tris, 400.0), &pos), pos.len())
     }
 
     /// `c` with its springs along `u` (between vertices of one row of `pos`) 100× as stiff:
